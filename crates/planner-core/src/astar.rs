@@ -1,0 +1,224 @@
+//! A* on the 8-connected grid: the comparison baseline of the patrol car paper's field test and
+//! the fallback seed of the potential-field planners.
+//!
+//! Octile heuristic (admissible and consistent for unit straight moves and sqrt 2 diagonal moves);
+//! a diagonal move only when both side cells are free, so no path cuts an obstacle corner. This is
+//! exactly the Moving AI benchmarks' convention, and `patrol-plan movingai` checks it against their
+//! published optimal lengths. Dense arrays instead of hash maps: a planning grid is small enough,
+//! and the swarm planners call this tens of thousands of times over a run.
+
+use crate::geometry::{Cell, Point2, NEIGHBOURS_8};
+use crate::inflation::PlanningGrid;
+use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Poll the interrupt callback once per this many expansions.
+const POLL_EVERY: u64 = 4096;
+
+/// The `astar` planner.
+#[derive(Clone, Debug, Default)]
+pub struct AStar;
+
+impl Planner for AStar {
+    fn name(&self) -> &'static str {
+        "astar"
+    }
+
+    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
+        let (cells, stats) = astar_cells(problem.grid, problem.start, problem.goal, ctx)?;
+        let waypoints = cells.into_iter().map(Cell::center).collect();
+        Ok(RawPlan {
+            waypoints,
+            stats,
+            pareto: Vec::new(),
+        })
+    }
+}
+
+/// Octile distance between two cells (in cells).
+#[inline]
+pub fn octile(a: Cell, b: Cell) -> f64 {
+    let dx = (a.x - b.x).abs() as f64;
+    let dy = (a.y - b.y).abs() as f64;
+    dx.max(dy) + (std::f64::consts::SQRT_2 - 1.0) * dx.min(dy)
+}
+
+#[derive(Clone, Copy, PartialEq)]
+struct Open {
+    f: f64,
+    g: f64,
+    index: u32,
+}
+
+impl Eq for Open {}
+
+impl Ord for Open {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // BinaryHeap is a max-heap: smallest f first, then the deeper node (larger g), then the
+        // smaller index, so the order of expansion is fully deterministic.
+        other
+            .f
+            .total_cmp(&self.f)
+            .then_with(|| self.g.total_cmp(&other.g))
+            .then_with(|| other.index.cmp(&self.index))
+    }
+}
+
+impl PartialOrd for Open {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// The 8-connected successors of a cell with their step costs, honouring the no-corner-cutting
+/// rule. Shared by A* and the tests' oracle.
+pub fn successors(grid: &PlanningGrid, c: Cell) -> impl Iterator<Item = (Cell, f64)> + '_ {
+    NEIGHBOURS_8.iter().filter_map(move |&(dx, dy)| {
+        let n = c.offset(dx, dy);
+        if !grid.is_free(n) {
+            return None;
+        }
+        if dx != 0 && dy != 0 {
+            if grid.is_free(c.offset(dx, 0)) && grid.is_free(c.offset(0, dy)) {
+                Some((n, std::f64::consts::SQRT_2))
+            } else {
+                None
+            }
+        } else {
+            Some((n, 1.0))
+        }
+    })
+}
+
+/// A* from `start` to `goal` (both free). Returns the cell path and its statistics.
+pub fn astar_cells(
+    grid: &PlanningGrid,
+    start: Cell,
+    goal: Cell,
+    ctx: &PlanContext<'_>,
+) -> Result<(Vec<Cell>, PlanStats), PlanError> {
+    let info = grid.info();
+    let n = info.cell_count();
+    let mut g = vec![f64::INFINITY; n];
+    let mut parent = vec![u32::MAX; n];
+    let mut closed = vec![false; n];
+    let mut open = BinaryHeap::new();
+    let (si, gi) = (info.index(start), info.index(goal));
+    g[si] = 0.0;
+    open.push(Open {
+        f: octile(start, goal),
+        g: 0.0,
+        index: si as u32,
+    });
+    let mut stats = PlanStats::default();
+    while let Some(Open { g: gc, index, .. }) = open.pop() {
+        let i = index as usize;
+        if closed[i] {
+            continue;
+        }
+        closed[i] = true;
+        stats.iterations += 1;
+        if stats.iterations % POLL_EVERY == 0 {
+            ctx.check()?;
+        }
+        if i == gi {
+            let mut cells = vec![goal];
+            let mut k = gi;
+            while k != si {
+                k = parent[k] as usize;
+                cells.push(info.cell_at(k));
+            }
+            cells.reverse();
+            return Ok((cells, stats));
+        }
+        let c = info.cell_at(i);
+        for (nb, cost) in successors(grid, c) {
+            let j = info.index(nb);
+            let ng = gc + cost;
+            if !closed[j] && ng < g[j] {
+                stats.evaluations += 1;
+                g[j] = ng;
+                parent[j] = index;
+                open.push(Open {
+                    f: ng + octile(nb, goal),
+                    g: ng,
+                    index: j as u32,
+                });
+            }
+        }
+    }
+    Err(PlanError::NoValidPath(format!(
+        "the goal is not reachable from the start (A* closed {} cells)",
+        stats.iterations
+    )))
+}
+
+/// Length (in cells) of a cell path.
+pub fn cell_path_length(cells: &[Cell]) -> f64 {
+    let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
+    crate::metrics::path_length(&pts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::{random_grid, rng};
+    use ordered_float::OrderedFloat;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Against the `pathfinding` crate's A* as an oracle: same optimal length, and the path is
+        /// a connected, collision-free 8-neighbour walk from start to goal.
+        #[test]
+        fn optimal_like_the_pathfinding_crate(seed in any::<u64>(), density in 0.0f64..0.4) {
+            let (grid, start, goal) = random_grid(seed, 24, 18, density);
+            let oracle = pathfinding::directed::astar::astar(
+                &start,
+                |&c| successors(&grid, c).map(|(n, w)| (n, OrderedFloat(w))).collect::<Vec<_>>(),
+                |&c| OrderedFloat(octile(c, goal)),
+                |&c| c == goal,
+            );
+            let mut r = rng(0);
+            let ours = astar_cells(&grid, start, goal, &PlanContext::never_interrupted(&mut r));
+            match (oracle, ours) {
+                (None, Err(PlanError::NoValidPath(_))) => {}
+                (Some((_, cost)), Ok((cells, _))) => {
+                    prop_assert!((cell_path_length(&cells) - cost.0).abs() < 1e-9);
+                    prop_assert_eq!(cells[0], start);
+                    prop_assert_eq!(*cells.last().unwrap(), goal);
+                    for w in cells.windows(2) {
+                        prop_assert!(successors(&grid, w[0]).any(|(n, _)| n == w[1]));
+                    }
+                    let pts: Vec<_> = cells.iter().map(|c| c.center()).collect();
+                    prop_assert!(crate::raycast::path_is_free(&grid, &pts));
+                }
+                (o, u) => prop_assert!(false, "oracle {:?} vs ours {:?}", o.map(|x| x.1), u.map(|x| x.0.len())),
+            }
+        }
+    }
+
+    #[test]
+    fn interrupt_stops_the_search() {
+        // A wall splits the map, so the search must close the whole left half before giving up,
+        // far more than POLL_EVERY cells.
+        let mut rows = vec![format!("{}#{}", ".".repeat(100), ".".repeat(99)); 200];
+        rows[0] = format!("{}#{}", ".".repeat(100), ".".repeat(99));
+        let grid = crate::test_support::grid_from_rows(
+            &rows.iter().map(String::as_str).collect::<Vec<_>>(),
+        );
+        let mut r = rng(0);
+        let ctx = PlanContext {
+            rng: &mut r,
+            interrupt: &|| Some(crate::planner::Interrupt::Deadline),
+        };
+        let result = astar_cells(&grid, Cell::new(0, 0), Cell::new(199, 199), &ctx);
+        assert_eq!(result.map(|_| ()), Err(PlanError::TimedOut));
+        let ctx = PlanContext::never_interrupted(&mut r);
+        assert!(matches!(
+            astar_cells(&grid, Cell::new(0, 0), Cell::new(199, 199), &ctx),
+            Err(PlanError::NoValidPath(_))
+        ));
+    }
+}

@@ -1,0 +1,74 @@
+//! Planner configuration: serde structs, every default a named function that `Default` uses too,
+//! so the YAML file, the CLI and the node agree on one set of values.
+//!
+//! This is the planning part of the node's `patrol_planner: ros__parameters:` block (see
+//! `config/planner.yaml`); each planner family adds its own section here.
+
+use crate::inflation::InflationConfig;
+use serde::{Deserialize, Serialize};
+
+/// A parameter with a value it cannot take.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("parameter `{name}`: {reason}")]
+pub struct ParamError {
+    pub name: String,
+    pub reason: String,
+}
+
+impl ParamError {
+    pub fn new(name: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// Everything needed to build and run a planner.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct PlannerConfig {
+    /// Planner name, one of [`crate::registry::PLANNER_NAMES`].
+    pub planner: String,
+    /// RNG seed; `None` lets the caller draw one (and report it, so the plan can be replayed).
+    pub seed: Option<u64>,
+    /// How far (m) an occupied goal may be moved to the nearest free cell. Default 0.25.
+    pub tolerance: f64,
+    /// Force the delete operation on (`true`) or off (`false`) for every planner; unset follows
+    /// each planner's default.
+    pub smoothing: Option<bool>,
+    /// How the raw map becomes the planning grid.
+    pub costmap: InflationConfig,
+}
+
+pub fn default_planner() -> String {
+    "astar".into()
+}
+pub fn default_tolerance() -> f64 {
+    0.25
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        Self {
+            planner: default_planner(),
+            seed: None,
+            tolerance: default_tolerance(),
+            smoothing: None,
+            costmap: InflationConfig::default(),
+        }
+    }
+}
+
+impl PlannerConfig {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        crate::registry::check_name(&self.planner)?;
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(ParamError::new(
+                "tolerance",
+                format!("{} is not a finite non-negative distance", self.tolerance),
+            ));
+        }
+        self.costmap.validate()
+    }
+}

@@ -1,0 +1,275 @@
+//! The occupancy grid, with nav_msgs/OccupancyGrid semantics.
+//!
+//! Cells hold `-1` (unknown) or an occupancy probability `0..=100`, row-major from the cell at the
+//! origin (bottom-left in ROS's convention), exactly like `nav_msgs/OccupancyGrid.data`. A cell is
+//! an obstacle at or above `occupied_threshold`; unknown is an obstacle unless `allow_unknown`
+//! (both live in [`crate::inflation::InflationConfig`], which turns this raw map into the planning
+//! grid).
+
+use crate::geometry::{Cell, Point2, Pose2};
+use serde::{Deserialize, Serialize};
+
+/// The default cap on `width x height`: large enough for a 5 km x 5 km yard at 0.5 m, small enough
+/// that a corrupt header cannot make the node allocate gigabytes.
+pub const DEFAULT_MAX_CELLS: u64 = 100_000_000;
+
+/// Value of an unknown cell.
+pub const UNKNOWN: i8 = -1;
+
+/// Everything wrong a map can be. Each violation is its own variant so that callers (the node's
+/// diagnostics, the CLI) can say exactly what was rejected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum MapError {
+    #[error("map has zero size ({width} x {height})")]
+    ZeroSize { width: u32, height: u32 },
+    #[error("map resolution {0} is not a finite positive number")]
+    BadResolution(f64),
+    #[error("map origin ({x}, {y}, yaw {yaw}) is not finite")]
+    BadOrigin { x: f64, y: f64, yaw: f64 },
+    #[error("map data has {actual} cells but width x height = {expected}")]
+    DataLength { expected: u64, actual: usize },
+    #[error("map has {cells} cells, more than the limit of {limit}")]
+    TooLarge { cells: u64, limit: u64 },
+    #[error("map cell {index} holds {value}, outside -1..=100")]
+    BadCellValue { index: usize, value: i8 },
+    #[error("map file: {0}")]
+    Format(String),
+}
+
+/// The metadata of a grid: nav_msgs/MapMetaData without the load time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MapInfo {
+    pub width: u32,
+    pub height: u32,
+    /// Metres per cell.
+    pub resolution: f64,
+    /// The pose of cell (0, 0)'s outer corner in the map frame.
+    pub origin: Pose2,
+}
+
+impl MapInfo {
+    pub fn cell_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// World metres -> continuous grid coordinates (cells), honouring the origin's yaw.
+    pub fn world_to_grid(&self, p: Point2) -> Point2 {
+        let (s, c) = self.origin.yaw.sin_cos();
+        let dx = p.x - self.origin.x;
+        let dy = p.y - self.origin.y;
+        Point2::new(
+            (c * dx + s * dy) / self.resolution,
+            (-s * dx + c * dy) / self.resolution,
+        )
+    }
+
+    /// Continuous grid coordinates -> world metres.
+    pub fn grid_to_world(&self, g: Point2) -> Point2 {
+        let (s, c) = self.origin.yaw.sin_cos();
+        let gx = g.x * self.resolution;
+        let gy = g.y * self.resolution;
+        Point2::new(
+            self.origin.x + c * gx - s * gy,
+            self.origin.y + s * gx + c * gy,
+        )
+    }
+
+    /// The cell containing a world point, or `None` when it lies outside the map.
+    pub fn world_to_cell(&self, p: Point2) -> Option<Cell> {
+        let g = self.world_to_grid(p);
+        let c = Cell::containing(g);
+        self.contains(c).then_some(c)
+    }
+
+    /// The centre of a cell in world metres.
+    pub fn cell_to_world(&self, c: Cell) -> Point2 {
+        self.grid_to_world(c.center())
+    }
+
+    pub fn contains(&self, c: Cell) -> bool {
+        c.x >= 0 && c.y >= 0 && (c.x as u32) < self.width && (c.y as u32) < self.height
+    }
+
+    /// Row-major index of a cell known to be inside the map.
+    #[inline]
+    pub fn index(&self, c: Cell) -> usize {
+        c.y as usize * self.width as usize + c.x as usize
+    }
+
+    /// The cell at a row-major index.
+    #[inline]
+    pub fn cell_at(&self, index: usize) -> Cell {
+        let w = self.width as usize;
+        Cell::new((index % w) as i32, (index / w) as i32)
+    }
+
+    fn validate(&self, max_cells: u64) -> Result<(), MapError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(MapError::ZeroSize {
+                width: self.width,
+                height: self.height,
+            });
+        }
+        if !(self.resolution.is_finite() && self.resolution > 0.0) {
+            return Err(MapError::BadResolution(self.resolution));
+        }
+        if !self.origin.is_finite() {
+            let o = self.origin;
+            return Err(MapError::BadOrigin {
+                x: o.x,
+                y: o.y,
+                yaw: o.yaw,
+            });
+        }
+        let cells = self.width as u64 * self.height as u64;
+        if cells > max_cells {
+            return Err(MapError::TooLarge {
+                cells,
+                limit: max_cells,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A validated occupancy grid. The only way to build one is [`GridMap::new`] (or a parser that
+/// calls it), so every `GridMap` in the program is well formed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridMap {
+    info: MapInfo,
+    data: Vec<i8>,
+}
+
+impl GridMap {
+    /// Validates and builds a map with the default size cap.
+    pub fn new(info: MapInfo, data: Vec<i8>) -> Result<Self, MapError> {
+        Self::with_limit(info, data, DEFAULT_MAX_CELLS)
+    }
+
+    /// Validates and builds a map: non-zero size, finite positive resolution, finite origin,
+    /// at most `max_cells` cells, `data.len() == width * height`, every value in `-1..=100`.
+    pub fn with_limit(info: MapInfo, data: Vec<i8>, max_cells: u64) -> Result<Self, MapError> {
+        info.validate(max_cells)?;
+        let expected = info.width as u64 * info.height as u64;
+        if data.len() as u64 != expected {
+            return Err(MapError::DataLength {
+                expected,
+                actual: data.len(),
+            });
+        }
+        if let Some((index, &value)) = data
+            .iter()
+            .enumerate()
+            .find(|(_, &v)| !(-1..=100).contains(&v))
+        {
+            return Err(MapError::BadCellValue { index, value });
+        }
+        Ok(Self { info, data })
+    }
+
+    pub fn info(&self) -> &MapInfo {
+        &self.info
+    }
+
+    pub fn data(&self) -> &[i8] {
+        &self.data
+    }
+
+    pub fn width(&self) -> u32 {
+        self.info.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.info.height
+    }
+
+    /// The raw value of a cell inside the map.
+    pub fn value(&self, c: Cell) -> i8 {
+        self.data[self.info.index(c)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info(w: u32, h: u32) -> MapInfo {
+        MapInfo {
+            width: w,
+            height: h,
+            resolution: 0.05,
+            origin: Pose2::default(),
+        }
+    }
+
+    #[test]
+    fn each_violation_is_its_own_error() {
+        assert_eq!(
+            GridMap::new(info(0, 3), vec![]),
+            Err(MapError::ZeroSize {
+                width: 0,
+                height: 3
+            })
+        );
+        let mut bad = info(2, 2);
+        bad.resolution = 0.0;
+        assert_eq!(
+            GridMap::new(bad, vec![0; 4]),
+            Err(MapError::BadResolution(0.0))
+        );
+        bad.resolution = f64::NAN;
+        assert!(matches!(
+            GridMap::new(bad, vec![0; 4]),
+            Err(MapError::BadResolution(_))
+        ));
+        let mut bad = info(2, 2);
+        bad.origin.yaw = f64::INFINITY;
+        assert!(matches!(
+            GridMap::new(bad, vec![0; 4]),
+            Err(MapError::BadOrigin { .. })
+        ));
+        assert_eq!(
+            GridMap::new(info(2, 2), vec![0; 3]),
+            Err(MapError::DataLength {
+                expected: 4,
+                actual: 3
+            })
+        );
+        assert_eq!(
+            GridMap::with_limit(info(10, 10), vec![0; 100], 99),
+            Err(MapError::TooLarge {
+                cells: 100,
+                limit: 99
+            })
+        );
+        assert_eq!(
+            GridMap::new(info(2, 1), vec![0, 101]),
+            Err(MapError::BadCellValue {
+                index: 1,
+                value: 101
+            })
+        );
+        assert!(GridMap::new(info(2, 2), vec![-1, 0, 50, 100]).is_ok());
+    }
+
+    #[test]
+    fn transforms_honour_yaw() {
+        let i = MapInfo {
+            width: 10,
+            height: 10,
+            resolution: 0.5,
+            origin: Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2),
+        };
+        // Grid +x points along world +y when the origin is turned by 90 degrees.
+        let w = i.grid_to_world(Point2::new(2.0, 0.0));
+        assert!((w.x - 1.0).abs() < 1e-12 && (w.y - 3.0).abs() < 1e-12);
+        let g = i.world_to_grid(w);
+        assert!((g.x - 2.0).abs() < 1e-12 && g.y.abs() < 1e-12);
+        assert_eq!(i.world_to_cell(Point2::new(0.0, 0.0)), None);
+        assert_eq!(
+            i.world_to_cell(Point2::new(0.9, 2.1)),
+            Some(Cell::new(0, 0))
+        );
+    }
+}

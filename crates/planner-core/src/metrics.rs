@@ -1,0 +1,165 @@
+//! Path metrics, the same for every planner and every table: length, total turning angle
+//! (patrol car paper eq. 17), number of turns, minimum clearance, and feasibility.
+
+use crate::geometry::{wrap_angle, Cell, Point2};
+use crate::inflation::PlanningGrid;
+use crate::raycast::{path_is_free, supercover};
+use serde::{Deserialize, Serialize};
+
+/// Heading changes smaller than this (rad) are not counted as turns: they are rounding noise.
+pub const TURN_EPS: f64 = 1e-6;
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PathMetrics {
+    /// Sum of segment lengths (m).
+    pub length_m: f64,
+    /// Sum of absolute heading changes between consecutive segments (rad), eq. 17.
+    pub turning_rad: f64,
+    /// Number of heading changes larger than [`TURN_EPS`].
+    pub turns: usize,
+    /// Smallest clearance (m, cell centre to nearest obstacle cell centre) of any cell the path
+    /// touches.
+    pub min_clearance_m: f64,
+    /// Every segment crosses only free cells of the planning grid.
+    pub collision_free: bool,
+}
+
+/// Sum of segment lengths, in the points' own unit.
+pub fn path_length(points: &[Point2]) -> f64 {
+    points.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// The headings of the non-degenerate segments of a polyline.
+fn headings(points: &[Point2]) -> impl Iterator<Item = f64> + '_ {
+    points.windows(2).filter_map(|w| {
+        let d = w[1] - w[0];
+        (d.norm_squared() > 0.0).then(|| d.y.atan2(d.x))
+    })
+}
+
+/// Total turning angle: the patrol car paper's eq. 17, `sum_j |alpha_{j+1} - alpha_j|`, with each
+/// segment's heading from `atan2` and the difference wrapped to (-pi, pi] so that paths which are
+/// not monotone along the start-goal axis are measured correctly too. Zero-length segments are
+/// skipped (they have no heading).
+pub fn total_turning(points: &[Point2]) -> f64 {
+    let h: Vec<f64> = headings(points).collect();
+    h.windows(2).map(|w| wrap_angle(w[1] - w[0]).abs()).sum()
+}
+
+/// Number of heading changes larger than [`TURN_EPS`].
+pub fn turn_count(points: &[Point2]) -> usize {
+    let h: Vec<f64> = headings(points).collect();
+    h.windows(2)
+        .filter(|w| wrap_angle(w[1] - w[0]).abs() > TURN_EPS)
+        .count()
+}
+
+/// Removes waypoints that lie on the straight line through their neighbours (and repeated
+/// points). The geometry of the path is unchanged; only redundant vertices go.
+pub fn drop_collinear(points: &[Point2]) -> Vec<Point2> {
+    let mut out: Vec<Point2> = Vec::with_capacity(points.len());
+    for &p in points {
+        if out.last() == Some(&p) {
+            continue;
+        }
+        if out.len() >= 2 {
+            let a = out[out.len() - 2];
+            let b = out[out.len() - 1];
+            let (u, v) = (b - a, p - b);
+            let cross = u.x * v.y - u.y * v.x;
+            if cross.abs() <= 1e-9 * u.norm() * v.norm() && u.dot(&v) > 0.0 {
+                out.pop();
+            }
+        }
+        out.push(p);
+    }
+    out
+}
+
+/// Smallest clearance (m) over every cell the polyline (grid coordinates) touches.
+pub fn min_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+    let mut best = f64::INFINITY;
+    let mut visit = |c: Cell| {
+        best = best.min(grid.clearance(c));
+        true
+    };
+    match points {
+        [] => return 0.0,
+        [p] => {
+            visit(Cell::containing(*p));
+        }
+        _ => {
+            for w in points.windows(2) {
+                supercover(w[0], w[1], &mut visit);
+            }
+        }
+    }
+    best
+}
+
+/// All metrics of a polyline given in grid coordinates; lengths are reported in metres.
+pub fn measure(grid: &PlanningGrid, points: &[Point2]) -> PathMetrics {
+    PathMetrics {
+        length_m: path_length(points) * grid.resolution(),
+        turning_rad: total_turning(points),
+        turns: turn_count(points),
+        min_clearance_m: min_clearance(grid, points),
+        collision_free: path_is_free(grid, points),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::{FRAC_PI_4, PI};
+
+    fn pts(v: &[(f64, f64)]) -> Vec<Point2> {
+        v.iter().map(|&(x, y)| Point2::new(x, y)).collect()
+    }
+
+    #[test]
+    fn eq17_on_polylines_with_known_angles() {
+        // Right angle left, then right angle right: pi/2 + pi/2.
+        let p = pts(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (2.0, 1.0)]);
+        assert!((total_turning(&p) - PI).abs() < 1e-12);
+        assert_eq!(turn_count(&p), 2);
+        // A 45 degree bend.
+        let p = pts(&[(0.0, 0.0), (1.0, 0.0), (2.0, 1.0)]);
+        assert!((total_turning(&p) - FRAC_PI_4).abs() < 1e-12);
+        // Heading across the +-pi seam: from 170 deg to -170 deg is a 20 deg turn, not 340.
+        let a = 170f64.to_radians();
+        let p = pts(&[
+            (0.0, 0.0),
+            (a.cos(), a.sin()),
+            (a.cos() + (-a).cos(), a.sin() + (-a).sin()),
+        ]);
+        assert!((total_turning(&p) - 20f64.to_radians()).abs() < 1e-9);
+        // A U-turn counts pi; a straight line counts nothing, repeated points are skipped.
+        assert!((total_turning(&pts(&[(0.0, 0.0), (1.0, 0.0), (0.0, 0.0)])) - PI).abs() < 1e-12);
+        assert_eq!(
+            total_turning(&pts(&[(0.0, 0.0), (1.0, 1.0), (1.0, 1.0), (2.0, 2.0)])),
+            0.0
+        );
+        assert!((path_length(&pts(&[(0.0, 0.0), (3.0, 4.0), (3.0, 5.0)])) - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn drop_collinear_keeps_corners_only() {
+        let p = pts(&[
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (2.0, 0.0),
+            (2.0, 0.0),
+            (3.0, 1.0),
+            (4.0, 2.0),
+            (4.0, 3.0),
+        ]);
+        assert_eq!(
+            drop_collinear(&p),
+            pts(&[(0.0, 0.0), (2.0, 0.0), (4.0, 2.0), (4.0, 3.0)])
+        );
+        // A U-turn's tip is not collinear-redundant.
+        let u = pts(&[(0.0, 0.0), (1.0, 0.0), (0.0, 0.0)]);
+        assert_eq!(drop_collinear(&u), u);
+    }
+}

@@ -1,0 +1,313 @@
+//! The one planner boundary.
+//!
+//! Every planner implements [`Planner`]: a pure function of (its parameters, the planning grid,
+//! the start and goal cells, the seed) that may be interrupted through a callback. It works in
+//! grid coordinates only. [`solve`] wraps it the way Nav2's planner plugins wrap their cores:
+//! it checks the request (finite numbers, inside the map, start and goal free, goal tolerance),
+//! calls the planner, applies the optional delete operation, verifies the result with the one
+//! collision rule of [`crate::raycast`], measures it and converts it to world metres. So no
+//! planner repeats validation, and no planner can hand back a colliding path.
+
+use crate::geometry::{Cell, Point2};
+use crate::inflation::PlanningGrid;
+use crate::metrics::{drop_collinear, measure, PathMetrics};
+use crate::raycast::{line_of_sight, path_is_free};
+use crate::smoothing::delete_redundant;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The random number generator every planner draws from: portable and seedable, so the same seed
+/// gives the same path on every machine.
+pub type PlannerRng = rand_chacha::ChaCha8Rng;
+
+/// Why a running plan was asked to stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interrupt {
+    /// The time budget ran out.
+    Deadline,
+    /// The caller no longer wants the plan (a new goal, shutdown).
+    Cancelled,
+}
+
+/// What a planner may use besides the problem: randomness and a way to learn it should stop.
+pub struct PlanContext<'a> {
+    pub rng: &'a mut PlannerRng,
+    /// Polled by planners (every iteration, or every few thousand expansions); `Some` means stop.
+    /// Anytime planners then return their best path so far with `stats.cut_short` set.
+    pub interrupt: &'a dyn Fn() -> Option<Interrupt>,
+}
+
+impl PlanContext<'_> {
+    /// The context of a run with no deadline.
+    pub fn never_interrupted(rng: &mut PlannerRng) -> PlanContext<'_> {
+        PlanContext {
+            rng,
+            interrupt: &|| None,
+        }
+    }
+
+    pub fn check(&self) -> Result<(), PlanError> {
+        match (self.interrupt)() {
+            None => Ok(()),
+            Some(Interrupt::Deadline) => Err(PlanError::TimedOut),
+            Some(Interrupt::Cancelled) => Err(PlanError::Cancelled),
+        }
+    }
+}
+
+/// A validated problem in grid coordinates, handed to [`Planner::plan`].
+#[derive(Clone, Copy, Debug)]
+pub struct Problem<'a> {
+    pub grid: &'a PlanningGrid,
+    pub start: Cell,
+    pub goal: Cell,
+    /// The exact start (inside `start`'s cell).
+    pub start_point: Point2,
+    /// The exact goal (inside `goal`'s cell; the cell centre when the goal was snapped).
+    pub goal_point: Point2,
+}
+
+/// One member of a Pareto front.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParetoMember {
+    /// Path length (m).
+    pub f1_length_m: f64,
+    /// Total turning angle (rad).
+    pub f2_turning_rad: f64,
+    pub waypoints: Vec<Point2>,
+}
+
+/// Statistics of a run: what the bench tables and `/diagnostics` report.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PlanStats {
+    /// Iterations (population methods) or node expansions (graph search).
+    pub iterations: u64,
+    /// Objective evaluations (population methods) or edges relaxed (graph search).
+    pub evaluations: u64,
+    /// The iteration at which the best value last improved.
+    pub best_iteration: Option<u64>,
+    /// Best objective value per iteration.
+    pub convergence: Vec<f64>,
+    /// The interrupt callback stopped the run and the best path so far came back.
+    pub cut_short: bool,
+    /// Planner-specific counters (e.g. `dropped_ants`), by name.
+    pub counters: BTreeMap<String, f64>,
+    /// Planner-specific remarks (e.g. which encoding was used, a fallback that happened).
+    pub notes: Vec<String>,
+}
+
+/// What a planner returns: a polyline in grid coordinates from the problem's start point to its
+/// goal point (cell centres in between are fine; `solve` adds the exact end points).
+#[derive(Clone, Debug, Default)]
+pub struct RawPlan {
+    pub waypoints: Vec<Point2>,
+    pub stats: PlanStats,
+    /// The Pareto front (grid coordinates), for multi-objective planners.
+    pub pareto: Vec<ParetoMember>,
+}
+
+/// The answer to a request: a verified, measured path in world metres.
+#[derive(Clone, Debug, Serialize)]
+pub struct Plan {
+    pub planner: &'static str,
+    pub waypoints: Vec<Point2>,
+    pub metrics: PathMetrics,
+    pub stats: PlanStats,
+    /// Pareto front in world metres (empty for single-objective planners).
+    pub pareto: Vec<ParetoMember>,
+    /// Where the plan actually ends: the requested goal, or the free cell it was snapped to.
+    pub goal: Point2,
+}
+
+/// A planning request in world metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Query {
+    pub start: Point2,
+    pub goal: Point2,
+    /// How far (m) the goal may be moved to reach a free cell; 0 means exactly there.
+    pub tolerance: f64,
+}
+
+/// How a request can fail: Nav2's planner failure set.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlanError {
+    #[error("start ({}, {}) is outside the map", .0.x, .0.y)]
+    StartOutsideMap(Point2),
+    #[error("goal ({}, {}) is outside the map", .0.x, .0.y)]
+    GoalOutsideMap(Point2),
+    #[error("start ({}, {}) is in an obstacle or within the inflation radius of one", .0.x, .0.y)]
+    StartOccupied(Point2),
+    #[error("goal ({}, {}) is in an obstacle or within the inflation radius of one, and no free cell lies within the tolerance", .0.x, .0.y)]
+    GoalOccupied(Point2),
+    #[error("no valid path: {0}")]
+    NoValidPath(String),
+    #[error("planning timed out before any path was found")]
+    TimedOut,
+    #[error("planning was cancelled")]
+    Cancelled,
+    #[error("invalid request: {0}")]
+    InvalidInput(String),
+}
+
+/// The one trait every planner implements. Object safe: planners are chosen by name at run time.
+pub trait Planner: Send + Sync {
+    /// The name users select it by (`astar`, `mocmcso`, ...).
+    fn name(&self) -> &'static str;
+
+    /// Whether [`solve`] applies the delete operation to this planner's path unless told
+    /// otherwise. Colony and genetic planners, whose paths are cell staircases, say yes.
+    fn smooth_by_default(&self) -> bool {
+        false
+    }
+
+    /// Plans on a validated problem. Pure: the result depends only on `self`, `problem` and the
+    /// RNG's state (and on when `ctx.interrupt` fires).
+    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError>;
+}
+
+/// Options of [`solve`] that are not the planner's own.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveOptions {
+    /// Apply the delete operation (genetic algorithm paper section 4.5): `None` follows
+    /// [`Planner::smooth_by_default`].
+    pub smoothing: Option<bool>,
+}
+
+/// Validates a request, runs the planner, post-processes, verifies and measures its path.
+pub fn solve(
+    planner: &dyn Planner,
+    grid: &PlanningGrid,
+    query: &Query,
+    options: SolveOptions,
+    ctx: &mut PlanContext<'_>,
+) -> Result<Plan, PlanError> {
+    let problem = validate(grid, query)?;
+    let raw = planner.plan(&problem, ctx)?;
+    let smoothing = options
+        .smoothing
+        .unwrap_or_else(|| planner.smooth_by_default());
+    let waypoints = finish_path(grid, &problem, raw.waypoints, smoothing)?;
+    let info = grid.info();
+    let to_world = |pts: &[Point2]| {
+        pts.iter()
+            .map(|&p| info.grid_to_world(p))
+            .collect::<Vec<_>>()
+    };
+    let pareto = raw
+        .pareto
+        .iter()
+        .map(|m| ParetoMember {
+            waypoints: to_world(&m.waypoints),
+            ..m.clone()
+        })
+        .collect();
+    Ok(Plan {
+        planner: planner.name(),
+        metrics: measure(grid, &waypoints),
+        waypoints: to_world(&waypoints),
+        stats: raw.stats,
+        pareto,
+        goal: info.grid_to_world(problem.goal_point),
+    })
+}
+
+/// Checks a world-frame request against the grid and turns it into a [`Problem`].
+pub fn validate<'a>(grid: &'a PlanningGrid, query: &Query) -> Result<Problem<'a>, PlanError> {
+    let finite = |p: Point2| p.x.is_finite() && p.y.is_finite();
+    if !finite(query.start) {
+        return Err(PlanError::InvalidInput(format!(
+            "start ({}, {}) is not finite",
+            query.start.x, query.start.y
+        )));
+    }
+    if !finite(query.goal) {
+        return Err(PlanError::InvalidInput(format!(
+            "goal ({}, {}) is not finite",
+            query.goal.x, query.goal.y
+        )));
+    }
+    if !(query.tolerance.is_finite() && query.tolerance >= 0.0) {
+        return Err(PlanError::InvalidInput(format!(
+            "tolerance {} is not a finite non-negative distance",
+            query.tolerance
+        )));
+    }
+    let info = grid.info();
+    let start_point = info.world_to_grid(query.start);
+    let mut goal_point = info.world_to_grid(query.goal);
+    let start = info
+        .world_to_cell(query.start)
+        .ok_or(PlanError::StartOutsideMap(query.start))?;
+    let mut goal = info
+        .world_to_cell(query.goal)
+        .ok_or(PlanError::GoalOutsideMap(query.goal))?;
+    if !grid.is_free(start) {
+        return Err(PlanError::StartOccupied(query.start));
+    }
+    if !grid.is_free(goal) {
+        let snapped = (query.tolerance > 0.0)
+            .then(|| grid.nearest_free(goal, query.tolerance / info.resolution))
+            .flatten();
+        goal = snapped.ok_or(PlanError::GoalOccupied(query.goal))?;
+        goal_point = goal.center();
+    }
+    Ok(Problem {
+        grid,
+        start,
+        goal,
+        start_point,
+        goal_point,
+    })
+}
+
+/// Pins a planner's polyline to the exact start and goal, optionally applies the delete operation,
+/// drops collinear vertices and verifies it.
+fn finish_path(
+    grid: &PlanningGrid,
+    problem: &Problem<'_>,
+    mut points: Vec<Point2>,
+    smoothing: bool,
+) -> Result<Vec<Point2>, PlanError> {
+    if points.is_empty() {
+        return Err(PlanError::NoValidPath(
+            "the planner returned an empty path".into(),
+        ));
+    }
+    // Segments inside one cell are always free, so pinning the ends never adds a collision.
+    let (first, last) = (points[0], points[points.len() - 1]);
+    if Cell::containing(first) != problem.start || Cell::containing(last) != problem.goal {
+        return Err(PlanError::NoValidPath(format!(
+            "the planner's path runs from cell {:?} to {:?}, not from the start to the goal",
+            Cell::containing(first),
+            Cell::containing(last)
+        )));
+    }
+    // Replace an end by the exact point where it still sees its neighbour, else add a short
+    // in-cell segment.
+    if first != problem.start_point {
+        if points.len() >= 2 && line_of_sight(grid, problem.start_point, points[1]) {
+            points[0] = problem.start_point;
+        } else {
+            points.insert(0, problem.start_point);
+        }
+    }
+    if last != problem.goal_point {
+        let n = points.len();
+        if n >= 2 && line_of_sight(grid, points[n - 2], problem.goal_point) {
+            points[n - 1] = problem.goal_point;
+        } else {
+            points.push(problem.goal_point);
+        }
+    }
+    if smoothing {
+        points = delete_redundant(grid, &points);
+    }
+    let points = drop_collinear(&points);
+    if !path_is_free(grid, &points) {
+        return Err(PlanError::NoValidPath(
+            "the planner's path crosses an obstacle".into(),
+        ));
+    }
+    Ok(points)
+}

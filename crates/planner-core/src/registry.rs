@@ -1,0 +1,49 @@
+//! The name table: the one place that maps planner names to implementations. The node and the
+//! CLI select planners through it, so a new planner needs one line here and nothing else.
+
+use crate::any_angle::AnyAngle;
+use crate::astar::AStar;
+use crate::config::{ParamError, PlannerConfig};
+use crate::planner::Planner;
+
+/// Every selectable planner, in the order tables list them.
+pub const PLANNER_NAMES: &[&str] = &["astar", "any_angle"];
+
+/// Checks a planner name, with the list of valid ones in the error.
+pub fn check_name(name: &str) -> Result<(), ParamError> {
+    if PLANNER_NAMES.contains(&name) {
+        Ok(())
+    } else {
+        Err(ParamError::new(
+            "planner",
+            format!(
+                "unknown planner `{name}`; choose one of {}",
+                PLANNER_NAMES.join(", ")
+            ),
+        ))
+    }
+}
+
+/// Builds the named planner with the parameters of `config`.
+pub fn build(name: &str, config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
+    config.costmap.validate()?;
+    match name {
+        "astar" => Ok(Box::new(AStar)),
+        "any_angle" => Ok(Box::new(AnyAngle)),
+        other => check_name(other).map(|_| unreachable!("check_name accepted an unlisted name")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_listed_name_builds_and_reports_its_name() {
+        for &name in PLANNER_NAMES {
+            assert_eq!(build(name, &PlannerConfig::default()).unwrap().name(), name);
+        }
+        let err = build("dijkstra", &PlannerConfig::default()).err().unwrap();
+        assert!(err.to_string().contains("astar"));
+    }
+}

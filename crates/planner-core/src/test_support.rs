@@ -1,0 +1,56 @@
+//! Grids for unit and property tests.
+
+use crate::geometry::{Cell, Pose2};
+use crate::grid::MapInfo;
+use crate::inflation::PlanningGrid;
+use crate::planner::PlannerRng;
+use rand::{Rng, SeedableRng};
+
+pub fn rng(seed: u64) -> PlannerRng {
+    PlannerRng::seed_from_u64(seed)
+}
+
+/// A grid from text rows listed top to bottom (`#` blocked, anything else free), 1 m cells, no
+/// inflation: the picture in the source reads like the map.
+pub fn grid_from_rows(rows: &[&str]) -> PlanningGrid {
+    let (w, h) = (rows[0].len(), rows.len());
+    let mut obstacle = vec![false; w * h];
+    for (r, row) in rows.iter().enumerate() {
+        assert_eq!(row.len(), w, "ragged test map");
+        for (x, ch) in row.bytes().enumerate() {
+            obstacle[(h - 1 - r) * w + x] = ch == b'#';
+        }
+    }
+    let info = MapInfo {
+        width: w as u32,
+        height: h as u32,
+        resolution: 1.0,
+        origin: Pose2::default(),
+    };
+    PlanningGrid::from_obstacles(info, obstacle, 0.0)
+}
+
+/// A seeded random grid (1 m cells, no inflation) with two distinct free cells as start and goal.
+pub fn random_grid(seed: u64, w: usize, h: usize, density: f64) -> (PlanningGrid, Cell, Cell) {
+    let mut r = rng(seed);
+    let mut obstacle: Vec<bool> = (0..w * h).map(|_| r.random_bool(density)).collect();
+    let start = Cell::new(r.random_range(0..w as i32), r.random_range(0..h as i32));
+    let mut goal = start;
+    while goal == start {
+        goal = Cell::new(r.random_range(0..w as i32), r.random_range(0..h as i32));
+    }
+    for c in [start, goal] {
+        obstacle[c.y as usize * w + c.x as usize] = false;
+    }
+    let info = MapInfo {
+        width: w as u32,
+        height: h as u32,
+        resolution: 1.0,
+        origin: Pose2::default(),
+    };
+    (
+        PlanningGrid::from_obstacles(info, obstacle, 0.0),
+        start,
+        goal,
+    )
+}
