@@ -1,1 +1,188 @@
-fn main() {}
+//! `patrol-plan`: run patrol-planner's planners from the command line — one plan, a benchmark
+//! table, a picture, or a check of A* against the Moving AI benchmarks' optimal lengths.
+
+mod bench;
+mod movingai;
+mod render;
+mod run;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(name = "patrol-plan", version, about = "Plan, benchmark and draw patrol-planner's global planners", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// A point `X,Y` in map metres.
+fn parse_point(s: &str) -> Result<[f64; 2], String> {
+    let (x, y) = s.split_once(',').ok_or("expected X,Y")?;
+    let p = |v: &str| v.trim().parse::<f64>().map_err(|e| format!("`{v}`: {e}"));
+    let pt = [p(x)?, p(y)?];
+    if pt.iter().all(|v| v.is_finite()) {
+        Ok(pt)
+    } else {
+        Err("coordinates must be finite".into())
+    }
+}
+
+#[derive(clap::Args, Clone)]
+struct Common {
+    /// Parameter file in the node's layout (`patrol_planner: ros__parameters:`); its planning
+    /// keys (costmap, tolerance, planner sections) apply. Default: built-in defaults.
+    #[arg(long)]
+    config: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Plan one path and print it as one JSON object (planner, seed, length_m, turning_rad, turns,
+    /// min_clearance_m, collision_free, time_ms, reference_length_m, waypoints).
+    Plan {
+        /// Map: map_server YAML, or a Moving AI `.map` (read with 1 m cells).
+        #[arg(long)]
+        map: PathBuf,
+        /// Start `X,Y` in map metres.
+        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+        start: [f64; 2],
+        /// Goal `X,Y` in map metres.
+        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+        goal: [f64; 2],
+        /// Planner name (default: the config's `planner`, else astar). `patrol-plan planners` lists them.
+        #[arg(long)]
+        planner: Option<String>,
+        /// RNG seed (default: the config's `seed`, else 0). The node logs the seed of every plan so
+        /// it can be replayed here.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Also draw the map, the inflated area, the path, the any-angle reference, start and goal.
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Run A* on every scenario of a Moving AI `.scen` and compare each length with the recorded
+    /// optimum (to the file's printed precision). Ends with `N passed, M failed`; exits 1 on any
+    /// failure.
+    Movingai {
+        #[arg(long)]
+        map: PathBuf,
+        #[arg(long)]
+        scen: PathBuf,
+    },
+    /// Run each planner R times (seeds 0..R-1) on every scenario of the given bench scenario files
+    /// and write a table: one row per map x scenario x planner, lengths also as ratios to the
+    /// any-angle reference and times as ratios to A* measured in the same run.
+    Bench {
+        /// `*.scen.yaml` files (e.g. ../shared/maps/bench/datacenter_100.scen.yaml).
+        #[arg(long, num_args = 1.., required = true)]
+        scenarios: Vec<PathBuf>,
+        /// Comma-separated planner names.
+        #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
+        planners: Vec<String>,
+        /// Runs per planner and scenario (seeds 0..runs-1).
+        #[arg(long, default_value_t = 5)]
+        runs: u64,
+        /// Only these scenario names (comma-separated); default all.
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+        /// Write the rows as a JSON array here (default: print JSON to stdout).
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write the same table as Markdown here.
+        #[arg(long)]
+        markdown: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Draw a map with the paths of several planners as SVG, so a person can check them by eye.
+    Render {
+        #[arg(long)]
+        map: PathBuf,
+        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+        start: [f64; 2],
+        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+        goal: [f64; 2],
+        /// Comma-separated planner names, each drawn in its own colour.
+        #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
+        planners: Vec<String>,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Output SVG file.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// List the planner names.
+    Planners,
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().command {
+        Command::Plan {
+            map,
+            start,
+            goal,
+            planner,
+            seed,
+            svg,
+            common,
+        } => run::plan_command(
+            &map,
+            start,
+            goal,
+            planner,
+            seed,
+            svg.as_deref(),
+            common.config.as_deref(),
+        ),
+        Command::Movingai { map, scen } => {
+            let failed = movingai::run(&map, &scen)?;
+            std::process::exit(if failed > 0 { 1 } else { 0 })
+        }
+        Command::Bench {
+            scenarios,
+            planners,
+            runs,
+            only,
+            json,
+            markdown,
+            common,
+        } => bench::run(&bench::BenchArgs {
+            scenarios,
+            planners,
+            runs,
+            only,
+            json,
+            markdown,
+            config: common.config,
+        }),
+        Command::Render {
+            map,
+            start,
+            goal,
+            planners,
+            seed,
+            out,
+            common,
+        } => run::render_command(
+            &map,
+            start,
+            goal,
+            &planners,
+            seed,
+            &out,
+            common.config.as_deref(),
+        ),
+        Command::Planners => {
+            for name in planner_core::registry::PLANNER_NAMES {
+                println!("{name}");
+            }
+            Ok(())
+        }
+    }
+}

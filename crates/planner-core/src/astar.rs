@@ -44,23 +44,34 @@ pub fn octile(a: Cell, b: Cell) -> f64 {
     dx.max(dy) + (std::f64::consts::SQRT_2 - 1.0) * dx.min(dy)
 }
 
-#[derive(Clone, Copy, PartialEq)]
+/// An open-list entry. The order is smallest f first, then the deeper node (larger g), then the
+/// smaller index, so the order of expansion is fully deterministic. f and g are non-negative, so
+/// their IEEE bit patterns order like the numbers: the key is one integer comparison.
+#[derive(Clone, Copy, PartialEq, Eq)]
 struct Open {
-    f: f64,
-    g: f64,
+    key: u128,
+    /// Index into the padded arrays.
     index: u32,
 }
 
-impl Eq for Open {}
+impl Open {
+    fn new(f: f64, g: f64, index: usize) -> Self {
+        // BinaryHeap is a max-heap: invert f so the smallest f is the largest key.
+        let key = ((!f.to_bits() as u128) << 64) | g.to_bits() as u128;
+        Self {
+            key,
+            index: index as u32,
+        }
+    }
+    fn g(&self) -> f64 {
+        f64::from_bits(self.key as u64)
+    }
+}
 
 impl Ord for Open {
     fn cmp(&self, other: &Self) -> Ordering {
-        // BinaryHeap is a max-heap: smallest f first, then the deeper node (larger g), then the
-        // smaller index, so the order of expansion is fully deterministic.
-        other
-            .f
-            .total_cmp(&self.f)
-            .then_with(|| self.g.total_cmp(&other.g))
+        self.key
+            .cmp(&other.key)
             .then_with(|| other.index.cmp(&self.index))
     }
 }
@@ -72,7 +83,8 @@ impl PartialOrd for Open {
 }
 
 /// The 8-connected successors of a cell with their step costs, honouring the no-corner-cutting
-/// rule. Shared by A* and the tests' oracle.
+/// rule. The reference statement of the move rule (A* inlines it on the padded mask); the tests'
+/// oracle uses it.
 pub fn successors(grid: &PlanningGrid, c: Cell) -> impl Iterator<Item = (Cell, f64)> + '_ {
     NEIGHBOURS_8.iter().filter_map(move |&(dx, dy)| {
         let n = c.offset(dx, dy);
@@ -92,32 +104,34 @@ pub fn successors(grid: &PlanningGrid, c: Cell) -> impl Iterator<Item = (Cell, f
 }
 
 /// A* from `start` to `goal` (both free). Returns the cell path and its statistics.
+///
+/// Works on the grid's padded free mask, so no move needs a bounds check; a stale heap entry
+/// (one whose g is no longer the best) is skipped instead of keeping a closed set.
 pub fn astar_cells(
     grid: &PlanningGrid,
     start: Cell,
     goal: Cell,
     ctx: &PlanContext<'_>,
 ) -> Result<(Vec<Cell>, PlanStats), PlanError> {
-    let info = grid.info();
-    let n = info.cell_count();
-    let mut g = vec![f64::INFINITY; n];
-    let mut parent = vec![u32::MAX; n];
-    let mut closed = vec![false; n];
+    let stride = grid.width() + 2;
+    let free = grid.padded_free();
+    let padded = |c: Cell| (c.y as usize + 1) * stride + c.x as usize + 1;
+    let unpadded = |i: usize| Cell::new((i % stride) as i32 - 1, (i / stride) as i32 - 1);
+    let s = stride as isize;
+    let offsets: [isize; 8] = NEIGHBOURS_8.map(|(dx, dy)| dx as isize + dy as isize * s);
+    let mut g = vec![f64::INFINITY; free.len()];
+    let mut parent = vec![u32::MAX; free.len()];
     let mut open = BinaryHeap::new();
-    let (si, gi) = (info.index(start), info.index(goal));
+    let (si, gi) = (padded(start), padded(goal));
     g[si] = 0.0;
-    open.push(Open {
-        f: octile(start, goal),
-        g: 0.0,
-        index: si as u32,
-    });
+    open.push(Open::new(octile(start, goal), 0.0, si));
     let mut stats = PlanStats::default();
-    while let Some(Open { g: gc, index, .. }) = open.pop() {
+    while let Some(top) = open.pop() {
+        let (gc, index) = (top.g(), top.index);
         let i = index as usize;
-        if closed[i] {
+        if gc > g[i] {
             continue;
         }
-        closed[i] = true;
         stats.iterations += 1;
         if stats.iterations % POLL_EVERY == 0 {
             ctx.check()?;
@@ -127,24 +141,35 @@ pub fn astar_cells(
             let mut k = gi;
             while k != si {
                 k = parent[k] as usize;
-                cells.push(info.cell_at(k));
+                cells.push(unpadded(k));
             }
             cells.reverse();
             return Ok((cells, stats));
         }
-        let c = info.cell_at(i);
-        for (nb, cost) in successors(grid, c) {
-            let j = info.index(nb);
-            let ng = gc + cost;
-            if !closed[j] && ng < g[j] {
+        let c = unpadded(i);
+        for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
+            let j = (i as isize + offsets[k]) as usize;
+            if !free[j] {
+                continue;
+            }
+            let diagonal = dx != 0 && dy != 0;
+            if diagonal
+                && !(free[(i as isize + dx as isize) as usize]
+                    && free[(i as isize + dy as isize * s) as usize])
+            {
+                continue;
+            }
+            let ng = gc
+                + if diagonal {
+                    std::f64::consts::SQRT_2
+                } else {
+                    1.0
+                };
+            if ng < g[j] {
                 stats.evaluations += 1;
                 g[j] = ng;
                 parent[j] = index;
-                open.push(Open {
-                    f: ng + octile(nb, goal),
-                    g: ng,
-                    index: j as u32,
-                });
+                open.push(Open::new(ng + octile(c.offset(dx, dy), goal), ng, j));
             }
         }
     }

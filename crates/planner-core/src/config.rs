@@ -37,6 +37,9 @@ pub struct PlannerConfig {
     /// Force the delete operation on (`true`) or off (`false`) for every planner; unset follows
     /// each planner's default.
     pub smoothing: Option<bool>,
+    /// Time budget of one plan (s); anytime planners return their best path so far when it runs
+    /// out, the others fail with a timeout. 0 means no limit. Default 5.
+    pub max_planning_time: f64,
     /// How the raw map becomes the planning grid.
     pub costmap: InflationConfig,
 }
@@ -47,6 +50,9 @@ pub fn default_planner() -> String {
 pub fn default_tolerance() -> f64 {
     0.25
 }
+pub fn default_max_planning_time() -> f64 {
+    5.0
+}
 
 impl Default for PlannerConfig {
     fn default() -> Self {
@@ -55,6 +61,7 @@ impl Default for PlannerConfig {
             seed: None,
             tolerance: default_tolerance(),
             smoothing: None,
+            max_planning_time: default_max_planning_time(),
             costmap: InflationConfig::default(),
         }
     }
@@ -67,6 +74,15 @@ impl PlannerConfig {
             return Err(ParamError::new(
                 "tolerance",
                 format!("{} is not a finite non-negative distance", self.tolerance),
+            ));
+        }
+        if !(self.max_planning_time.is_finite() && self.max_planning_time >= 0.0) {
+            return Err(ParamError::new(
+                "max_planning_time",
+                format!(
+                    "{} is not a finite non-negative time",
+                    self.max_planning_time
+                ),
             ));
         }
         self.costmap.validate()

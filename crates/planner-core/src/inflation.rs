@@ -91,11 +91,14 @@ impl InflationConfig {
 #[derive(Clone, Debug)]
 pub struct PlanningGrid {
     info: MapInfo,
-    blocked: Vec<bool>,
-    /// Distance from each cell centre to the nearest obstacle cell centre, in cells
-    /// (`f32::INFINITY` on a map without obstacles).
-    clearance: Vec<f32>,
+    /// Squared distance from each cell centre to the nearest obstacle cell centre, in cells
+    /// (`u32::MAX` where there is none). The root is taken only when asked: most cells are never
+    /// queried, and a million roots cost a third of the transform.
+    clearance2: Vec<u32>,
     inflation_radius: f64,
+    /// Free cells, with a one-cell blocked border (row stride `width + 2`): lets the graph
+    /// searches step to any 8-neighbour without a bounds check.
+    padded_free: Vec<bool>,
 }
 
 impl PlanningGrid {
@@ -124,28 +127,29 @@ impl PlanningGrid {
             info.cell_count(),
             "obstacle mask does not match the map size"
         );
-        let dist2 =
-            squared_distance_transform(info.width as usize, info.height as usize, &obstacle);
+        let (w, h) = (info.width as usize, info.height as usize);
         let r_cells = radius / info.resolution;
-        // Compare squared integers with a tiny slack so that a radius of exactly k cells blocks
-        // the cells at distance k despite floating rounding.
+        // A tiny slack so that a radius of exactly k cells blocks the cells at distance k despite
+        // floating rounding.
         let r2 = r_cells * r_cells + 1e-9;
-        let blocked = dist2.iter().map(|&d| (d as f64) <= r2).collect();
-        let clearance = dist2
-            .iter()
-            .map(|&d| {
-                if d == u64::MAX {
-                    f32::INFINITY
-                } else {
-                    (d as f64).sqrt() as f32
-                }
-            })
-            .collect();
+        let mut clearance2 = vec![0u32; w * h];
+        squared_distance_transform_in_place(w, h, &obstacle, &mut clearance2);
+        drop(obstacle);
+        let mut padded_free = vec![false; (w + 2) * (h + 2)];
+        for (row, d2) in padded_free
+            .chunks_exact_mut(w + 2)
+            .skip(1)
+            .zip(clearance2.chunks_exact(w))
+        {
+            for (p, &d) in row[1..=w].iter_mut().zip(d2) {
+                *p = d == NO_OBSTACLE || d as f64 > r2;
+            }
+        }
         Self {
             info,
-            blocked,
-            clearance,
+            clearance2,
             inflation_radius: radius,
+            padded_free,
         }
     }
 
@@ -168,23 +172,23 @@ impl PlanningGrid {
     /// Whether the robot's centre may be in this cell (false outside the map).
     #[inline]
     pub fn is_free(&self, c: Cell) -> bool {
-        self.info.contains(c) && !self.blocked[self.info.index(c)]
+        self.info.contains(c)
+            && self.padded_free[(c.y as usize + 1) * (self.width() + 2) + c.x as usize + 1]
     }
 
-    /// Whether the cell at a row-major index is free (the index must be inside the map).
-    #[inline]
-    pub fn is_free_index(&self, i: usize) -> bool {
-        !self.blocked[i]
-    }
-
-    pub fn blocked_mask(&self) -> &[bool] {
-        &self.blocked
+    /// The free mask with a one-cell blocked border (row stride `width + 2`; cell (x, y) is at
+    /// `(y + 1) * (width + 2) + x + 1`).
+    pub fn padded_free(&self) -> &[bool] {
+        &self.padded_free
     }
 
     /// Distance (m) from a cell's centre to the nearest obstacle cell's centre; 0 outside the map.
     pub fn clearance(&self, c: Cell) -> f64 {
         if self.info.contains(c) {
-            self.clearance[self.info.index(c)] as f64 * self.info.resolution
+            match self.clearance2[self.info.index(c)] {
+                u32::MAX => f64::INFINITY,
+                d2 => (d2 as f64).sqrt() * self.info.resolution,
+            }
         } else {
             0.0
         }
@@ -215,74 +219,98 @@ impl PlanningGrid {
 }
 
 /// Exact squared Euclidean distance (in cells, centre to centre) from every cell to the nearest
-/// `true` cell of `obstacle`; `u64::MAX` where there is none. Meijster et al. 2000.
-pub fn squared_distance_transform(width: usize, height: usize, obstacle: &[bool]) -> Vec<u64> {
+/// `true` cell of `obstacle`; `None` where there is none. Meijster et al. 2000.
+pub fn squared_distance_transform(
+    width: usize,
+    height: usize,
+    obstacle: &[bool],
+) -> Vec<Option<u64>> {
+    let mut d2 = vec![0u32; width * height];
+    squared_distance_transform_in_place(width, height, obstacle, &mut d2);
+    d2.into_iter()
+        .map(|d| (d != NO_OBSTACLE).then_some(d as u64))
+        .collect()
+}
+
+/// The squared distance reported where no obstacle exists.
+pub const NO_OBSTACLE: u32 = u32::MAX;
+
+/// The transform, written into `d2` (row-major, `width * height` long): squared distances,
+/// saturated at `u32::MAX - 1` (65535 cells), or [`NO_OBSTACLE`]. The buffer doubles as the first
+/// phase's scratch space, so the transform allocates nothing of the map's size.
+pub fn squared_distance_transform_in_place(
+    width: usize,
+    height: usize,
+    obstacle: &[bool],
+    d2: &mut [u32],
+) {
+    assert_eq!(obstacle.len(), width * height);
+    assert_eq!(d2.len(), width * height);
     // "Infinity" must stay finite so that the separator arithmetic below is exact.
-    let inf = (width + height) as i64;
-    // Phase 1: per column, the vertical distance to the nearest obstacle.
-    let mut g = vec![0i64; width * height];
+    let inf = (width + height) as u32;
+    // Phase 1: per column, the vertical distance to the nearest obstacle. Swept row by row (down,
+    // then up) so that memory is read in order.
+    let g = d2;
     for x in 0..width {
         g[x] = if obstacle[x] { 0 } else { inf };
-        for y in 1..height {
-            let i = y * width + x;
-            g[i] = if obstacle[i] {
-                0
-            } else {
-                (g[i - width] + 1).min(inf)
-            };
-        }
-        for y in (0..height.saturating_sub(1)).rev() {
-            let i = y * width + x;
-            let below = g[i + width] + 1;
-            if below < g[i] {
-                g[i] = below;
-            }
+    }
+    for y in 1..height {
+        let (prev, cur) = g.split_at_mut(y * width);
+        let prev = &prev[(y - 1) * width..];
+        let obst = &obstacle[y * width..(y + 1) * width];
+        for ((c, &p), &o) in cur[..width].iter_mut().zip(prev).zip(obst) {
+            *c = if o { 0 } else { (p + 1).min(inf) };
         }
     }
-    // Phase 2: per row, the lower envelope of the parabolas (x - i)^2 + g(i)^2.
-    let mut out = vec![u64::MAX; width * height];
-    let mut s = vec![0usize; width];
-    let mut t = vec![0i64; width];
-    for y in 0..height {
-        let row = &g[y * width..(y + 1) * width];
-        let f = |x: i64, i: usize| (x - i as i64).pow(2) + row[i].pow(2);
-        let sep = |i: usize, u: usize| {
-            let (i, u) = (i as i64, u as i64);
-            (u * u - i * i + row[u as usize].pow(2) - row[i as usize].pow(2)) / (2 * (u - i))
-        };
-        let mut q: isize = 0;
-        s[0] = 0;
-        t[0] = 0;
-        for u in 1..width {
-            while q >= 0 && f(t[q as usize], s[q as usize]) > f(t[q as usize], u) {
-                q -= 1;
+    for y in (0..height.saturating_sub(1)).rev() {
+        let (cur, next) = g.split_at_mut((y + 1) * width);
+        for (c, &n) in cur[y * width..].iter_mut().zip(&next[..width]) {
+            *c = (*c).min(n + 1);
+        }
+    }
+    // Phase 2: per row, the lower envelope of the parabolas (x - i)^2 + g(i)^2, kept as a stack
+    // of (apex column s, first column t where it is lowest, g(s)^2). The row's g is copied out
+    // first, so the result can overwrite it.
+    let mut envelope: Vec<(i64, i64, i64)> = Vec::with_capacity(width);
+    let mut g2 = vec![0i64; width];
+    let w = width as i64;
+    for row in g.chunks_exact_mut(width) {
+        if row.iter().all(|&v| v >= inf) {
+            row.fill(NO_OBSTACLE);
+            continue;
+        }
+        for (d, &v) in g2.iter_mut().zip(row.iter()) {
+            *d = (v as i64).pow(2);
+        }
+        envelope.clear();
+        envelope.push((0, 0, g2[0]));
+        for (u, &gu) in g2.iter().enumerate().skip(1) {
+            let u = u as i64;
+            while let Some(&(s, t, gs)) = envelope.last() {
+                if (t - s).pow(2) + gs > (t - u).pow(2) + gu {
+                    envelope.pop();
+                } else {
+                    break;
+                }
             }
-            if q < 0 {
-                q = 0;
-                s[0] = u;
-            } else {
-                let w = 1 + sep(s[q as usize], u);
-                if w < width as i64 {
-                    q += 1;
-                    s[q as usize] = u;
-                    t[q as usize] = w;
+            match envelope.last() {
+                None => envelope.push((u, 0, gu)),
+                Some(&(s, _, gs)) => {
+                    let start = 1 + (u * u - s * s + gu - gs) / (2 * (u - s));
+                    if start < w {
+                        envelope.push((u, start, gu));
+                    }
                 }
             }
         }
-        for u in (0..width).rev() {
-            let d = f(u as i64, s[q as usize]);
-            // Anything at or beyond inf^2 had no obstacle in reach.
-            out[y * width + u] = if row[s[q as usize]] >= inf {
-                u64::MAX
-            } else {
-                d as u64
-            };
-            if u as i64 == t[q as usize] {
-                q -= 1;
+        // Each parabola owns the columns from its t to the next one's t.
+        for (k, &(s, t, gs)) in envelope.iter().enumerate() {
+            let end = envelope.get(k + 1).map_or(w, |e| e.1);
+            for (x, o) in (t..end).zip(&mut row[t as usize..end as usize]) {
+                *o = ((x - s).pow(2) + gs).min(NO_OBSTACLE as i64 - 1) as u32;
             }
         }
     }
-    out
 }
 
 #[cfg(test)]
@@ -291,7 +319,7 @@ mod tests {
     use crate::geometry::Pose2;
     use proptest::prelude::*;
 
-    fn brute_force(width: usize, height: usize, obstacle: &[bool]) -> Vec<u64> {
+    fn brute_force(width: usize, height: usize, obstacle: &[bool]) -> Vec<Option<u64>> {
         (0..width * height)
             .map(|i| {
                 let (x, y) = ((i % width) as i64, (i / width) as i64);
@@ -304,7 +332,8 @@ mod tests {
                         ((x - ox).pow(2) + (y - oy).pow(2)) as u64
                     })
                     .min()
-                    .unwrap_or(u64::MAX)
+                    .map(Some)
+                    .unwrap_or(None)
             })
             .collect()
     }

@@ -1,1 +1,105 @@
+//! File loading for patrol-planner: the thin I/O edge around planner-core's parsers, shared by
+//! the CLI and the node so both read maps, scenarios and parameters the same way.
 
+use planner_core::config::PlannerConfig;
+use planner_core::grid::{GridMap, MapError};
+use planner_core::maps::map_server::MapYaml;
+use planner_core::maps::movingai::{self, MovingAiMap, MovingAiScenario};
+use planner_core::maps::scenarios::ScenarioFile;
+use std::path::{Path, PathBuf};
+
+/// Everything that can go wrong loading a file, with the path in the message.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Map { path: PathBuf, source: MapError },
+    #[error("{path}: {message}")]
+    Config { path: PathBuf, message: String },
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
+    std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+fn map_err(path: &Path) -> impl FnOnce(MapError) -> LoadError + '_ {
+    move |source| LoadError::Map {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// A map_server map: the YAML, then its image (relative to the YAML's folder unless absolute).
+pub fn load_map_server(yaml_path: &Path) -> Result<GridMap, LoadError> {
+    let yaml = MapYaml::parse(&read(yaml_path)?).map_err(map_err(yaml_path))?;
+    let image_path = yaml_path
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(&yaml.image);
+    let image = read(&image_path)?;
+    yaml.decode(&image).map_err(map_err(&image_path))
+}
+
+/// A Moving AI `.map` file.
+pub fn load_movingai_map(path: &Path) -> Result<MovingAiMap, LoadError> {
+    MovingAiMap::parse(&read(path)?).map_err(map_err(path))
+}
+
+/// A Moving AI `.scen` file.
+pub fn load_movingai_scenarios(path: &Path) -> Result<Vec<MovingAiScenario>, LoadError> {
+    movingai::parse_scenarios(&read(path)?).map_err(map_err(path))
+}
+
+/// Any map users give us: `.map` is Moving AI (1 m cells), anything else map_server YAML.
+pub fn load_map(path: &Path) -> Result<GridMap, LoadError> {
+    if path.extension().is_some_and(|e| e == "map") {
+        Ok(load_movingai_map(path)?.grid)
+    } else {
+        load_map_server(path)
+    }
+}
+
+/// A bench scenario file, with the path of the map it names.
+pub fn load_scenario_file(path: &Path) -> Result<(ScenarioFile, PathBuf), LoadError> {
+    let file = ScenarioFile::parse(&read(path)?).map_err(map_err(path))?;
+    let map_path = path.parent().unwrap_or(Path::new(".")).join(&file.map);
+    Ok((file, map_path))
+}
+
+/// The `ros__parameters` block of `node_name` in a ROS 2 parameter file (Nav2's layout), as YAML.
+pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::Value, LoadError> {
+    let text = read(path)?;
+    let doc: serde_yaml::Value = serde_yaml::from_slice(&text).map_err(|e| LoadError::Config {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })?;
+    doc.get(node_name)
+        .and_then(|n| n.get("ros__parameters"))
+        .cloned()
+        .ok_or_else(|| LoadError::Config {
+            path: path.to_owned(),
+            message: format!("no `{node_name}: ros__parameters:` block"),
+        })
+}
+
+/// The planning part of a parameter file: the `patrol_planner` node's parameters that
+/// [`PlannerConfig`] knows (the node's own keys, such as topics and twist limits, are left to it).
+/// The result is validated.
+pub fn load_planner_config(path: &Path) -> Result<PlannerConfig, LoadError> {
+    let params = load_ros_parameters(path, "patrol_planner")?;
+    let config_err = |message: String| LoadError::Config {
+        path: path.to_owned(),
+        message,
+    };
+    let config: PlannerConfig =
+        serde_yaml::from_value(params).map_err(|e| config_err(e.to_string()))?;
+    config.validate().map_err(|e| config_err(e.to_string()))?;
+    Ok(config)
+}

@@ -1,0 +1,66 @@
+//! `patrol-plan movingai`: A* against the Moving AI benchmarks' published optimal lengths
+//! (8-connected, diagonal sqrt 2, no corner cutting), as the pathfinding crate's own bench does,
+//! so the benchmark is also a correctness check.
+
+use anyhow::{bail, Result};
+use planner_core::astar::{astar_cells, cell_path_length};
+use planner_core::inflation::{InflationConfig, PlanningGrid};
+use planner_core::planner::{PlanContext, PlannerRng};
+use rand::SeedableRng;
+use std::path::Path;
+
+/// Runs every scenario; prints each failure and a closing `N passed, M failed`. Returns M.
+pub fn run(map_path: &Path, scen_path: &Path) -> Result<usize> {
+    let map = planner_io::load_movingai_map(map_path)?;
+    let scenarios = planner_io::load_movingai_scenarios(scen_path)?;
+    let name = map_path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    if let Some(other) = scenarios.iter().find(|s| s.map != name) {
+        bail!(
+            "{} names map `{}`, not `{name}`",
+            scen_path.display(),
+            other.map
+        );
+    }
+    // The benchmarks' lengths are for the bare grid: no inflation.
+    let grid = PlanningGrid::new(&map.grid, &InflationConfig::none())?;
+    let mut rng = PlannerRng::seed_from_u64(0);
+    let ctx = PlanContext::never_interrupted(&mut rng);
+    let (mut passed, mut failed) = (0usize, 0usize);
+    for (i, s) in scenarios.iter().enumerate() {
+        let start = map.cell(s.start.0, s.start.1);
+        let goal = map.cell(s.goal.0, s.goal.1);
+        let outcome = if !grid.is_free(start) || !grid.is_free(goal) {
+            Err("start or goal is blocked".to_string())
+        } else {
+            match astar_cells(&grid, start, goal, &ctx) {
+                Ok((cells, _)) => {
+                    let len = cell_path_length(&cells);
+                    if (len - s.optimal_length).abs() <= s.tolerance {
+                        Ok(())
+                    } else {
+                        Err(format!(
+                            "length {len:.8} vs optimal {} (tolerance {:e})",
+                            s.optimal_length, s.tolerance
+                        ))
+                    }
+                }
+                Err(e) => Err(e.to_string()),
+            }
+        };
+        match outcome {
+            Ok(()) => passed += 1,
+            Err(why) => {
+                failed += 1;
+                println!(
+                    "FAIL {name} scenario {i} ({:?} -> {:?}): {why}",
+                    s.start, s.goal
+                );
+            }
+        }
+    }
+    println!("{passed} passed, {failed} failed");
+    Ok(failed)
+}

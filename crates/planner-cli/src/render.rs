@@ -1,0 +1,157 @@
+//! SVG pictures of a map and paths, for people to check by eye.
+//!
+//! The map is one embedded PNG (one pixel per cell: obstacles black, unknown grey, the inflated
+//! band pink, free white), so even a 1000 x 1000 map stays a small file; paths are polylines on
+//! top, in grid coordinates with the y axis flipped so north is up.
+
+use base64::Engine;
+use planner_core::config::PlannerConfig;
+use planner_core::geometry::{Cell, Point2};
+use planner_core::grid::{GridMap, UNKNOWN};
+use planner_core::inflation::PlanningGrid;
+use std::fmt::Write;
+
+const PALETTE: &[&str] = &[
+    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+    "#bcbd22",
+];
+
+/// Something drawn over the map, in world metres.
+pub enum Layer {
+    Path { label: String, points: Vec<Point2> },
+    Endpoints { start: Point2, goal: Point2 },
+}
+
+impl Layer {
+    pub fn path(label: &str, points: &[Point2]) -> Self {
+        Layer::Path {
+            label: label.to_string(),
+            points: points.to_vec(),
+        }
+    }
+    pub fn endpoints(start: Point2, goal: Point2) -> Self {
+        Layer::Endpoints { start, goal }
+    }
+}
+
+pub struct Drawing<'a> {
+    map: &'a GridMap,
+    grid: &'a PlanningGrid,
+    occupied_threshold: i8,
+    layers: Vec<Layer>,
+}
+
+impl<'a> Drawing<'a> {
+    pub fn new(map: &'a GridMap, grid: &'a PlanningGrid, config: &PlannerConfig) -> Self {
+        Self {
+            map,
+            grid,
+            occupied_threshold: config.costmap.occupied_threshold,
+            layers: Vec::new(),
+        }
+    }
+
+    pub fn add(&mut self, layer: Layer) {
+        self.layers.push(layer);
+    }
+
+    fn map_png(&self) -> String {
+        let (w, h) = (self.map.width(), self.map.height());
+        let img = image::RgbImage::from_fn(w, h, |x, row| {
+            let c = Cell::new(x as i32, (h - 1 - row) as i32);
+            let v = self.map.value(c);
+            image::Rgb(if v == UNKNOWN {
+                [158, 158, 158]
+            } else if v >= self.occupied_threshold {
+                [0, 0, 0]
+            } else if !self.grid.is_free(c) {
+                [244, 194, 194]
+            } else {
+                [255, 255, 255]
+            })
+        });
+        let mut png = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .expect("encoding a PNG in memory");
+        base64::engine::general_purpose::STANDARD.encode(png)
+    }
+
+    pub fn to_svg(&self) -> String {
+        let info = self.grid.info();
+        let (w, h) = (info.width as f64, info.height as f64);
+        let scale = 900.0 / w.max(h);
+        let stroke = (w.max(h) / 250.0).max(0.15);
+        let legend_h = 18.0 * (self.layers.len() as f64 + 1.0);
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{:.0}" height="{:.0}" viewBox="0 0 {w} {}">"#,
+            w * scale,
+            h * scale + legend_h,
+            h + legend_h / scale
+        );
+        let _ = writeln!(
+            s,
+            r#"<image x="0" y="0" width="{w}" height="{h}" preserveAspectRatio="none" style="image-rendering:pixelated" href="data:image/png;base64,{}"/>"#,
+            self.map_png()
+        );
+        // Grid coordinates, y flipped.
+        let xy = |p: Point2| {
+            let g = info.world_to_grid(p);
+            (g.x, h - g.y)
+        };
+        let mut legend = Vec::new();
+        let mut colour = PALETTE.iter().cycle();
+        for layer in &self.layers {
+            match layer {
+                Layer::Path { label, points } => {
+                    let c = colour.next().unwrap();
+                    let pts: Vec<String> = points
+                        .iter()
+                        .map(|&p| xy(p))
+                        .map(|(x, y)| format!("{x:.3},{y:.3}"))
+                        .collect();
+                    let _ = writeln!(
+                        s,
+                        r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="{stroke:.3}" stroke-linejoin="round" opacity="0.9"><title>{label}</title></polyline>"#,
+                        pts.join(" ")
+                    );
+                    let len: f64 = points.windows(2).map(|p| (p[1] - p[0]).norm()).sum();
+                    legend.push((
+                        c.to_string(),
+                        format!("{label}: {len:.2} m, {} waypoints", points.len()),
+                    ));
+                }
+                Layer::Endpoints { start, goal } => {
+                    for (p, c, name) in [(start, "#00a000", "start"), (goal, "#d00000", "goal")] {
+                        let (x, y) = xy(*p);
+                        let _ = writeln!(
+                            s,
+                            r#"<circle cx="{x:.3}" cy="{y:.3}" r="{:.3}" fill="{c}"><title>{name}</title></circle>"#,
+                            stroke * 2.5
+                        );
+                    }
+                }
+            }
+        }
+        let font = 12.0 / scale;
+        for (i, (c, text)) in legend.iter().enumerate() {
+            let y = h + (i as f64 + 1.0) * 18.0 / scale;
+            let _ = writeln!(
+                s,
+                r#"<rect x="{:.3}" y="{:.3}" width="{:.3}" height="{:.3}" fill="{c}"/>"#,
+                font * 0.3,
+                y - font * 0.8,
+                font,
+                font * 0.8
+            );
+            let _ = writeln!(
+                s,
+                r#"<text x="{:.3}" y="{y:.3}" font-size="{font:.3}" font-family="sans-serif">{text}</text>"#,
+                font * 1.6
+            );
+        }
+        s.push_str("</svg>\n");
+        s
+    }
+}

@@ -1,0 +1,182 @@
+//! Loading a map into a planning grid and running a planner on it, timed: what `plan`, `render`
+//! and `bench` share.
+
+use crate::render::{Drawing, Layer};
+use anyhow::{Context, Result};
+use planner_core::config::PlannerConfig;
+use planner_core::geometry::Point2;
+use planner_core::grid::GridMap;
+use planner_core::inflation::PlanningGrid;
+use planner_core::planner::{
+    Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query, SolveOptions,
+};
+use planner_core::registry;
+use rand::SeedableRng;
+use serde::Serialize;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// The config file's planning parameters, or the defaults.
+pub fn load_config(path: Option<&Path>) -> Result<PlannerConfig> {
+    Ok(match path {
+        Some(p) => planner_io::load_planner_config(p)?,
+        None => PlannerConfig::default(),
+    })
+}
+
+/// A loaded map and its planning grid.
+pub struct Workspace {
+    pub map: GridMap,
+    pub grid: PlanningGrid,
+    pub config: PlannerConfig,
+}
+
+impl Workspace {
+    pub fn load(map_path: &Path, config: PlannerConfig) -> Result<Self> {
+        let map = planner_io::load_map(map_path)?;
+        Self::new(map, config)
+    }
+
+    pub fn new(map: GridMap, config: PlannerConfig) -> Result<Self> {
+        let grid = PlanningGrid::new(&map, &config.costmap)?;
+        Ok(Self { map, grid, config })
+    }
+
+    pub fn query(&self, start: [f64; 2], goal: [f64; 2]) -> Query {
+        Query {
+            start: Point2::new(start[0], start[1]),
+            goal: Point2::new(goal[0], goal[1]),
+            tolerance: self.config.tolerance,
+        }
+    }
+
+    /// Runs one planner once, honouring the config's time budget; returns the result and the
+    /// wall time of the whole request (validation, planning, post-processing, metrics).
+    pub fn run(
+        &self,
+        planner: &str,
+        query: &Query,
+        seed: u64,
+    ) -> Result<(Result<Plan, PlanError>, Duration)> {
+        let p = registry::build(planner, &self.config)?;
+        let mut rng = PlannerRng::seed_from_u64(seed);
+        let t0 = Instant::now();
+        let budget = self.config.max_planning_time;
+        let deadline = (budget > 0.0).then(|| t0 + Duration::from_secs_f64(budget));
+        let interrupt = move || {
+            deadline
+                .filter(|d| Instant::now() >= *d)
+                .map(|_| Interrupt::Deadline)
+        };
+        let mut ctx = PlanContext {
+            rng: &mut rng,
+            interrupt: &interrupt,
+        };
+        let options = SolveOptions {
+            smoothing: self.config.smoothing,
+        };
+        let result = planner_core::solve(p.as_ref(), &self.grid, query, options, &mut ctx);
+        Ok((result, t0.elapsed()))
+    }
+}
+
+#[derive(Serialize)]
+struct PlanOutput<'a> {
+    planner: &'a str,
+    seed: u64,
+    length_m: f64,
+    turning_rad: f64,
+    turns: usize,
+    min_clearance_m: f64,
+    collision_free: bool,
+    time_ms: f64,
+    reference_length_m: Option<f64>,
+    goal: [f64; 2],
+    iterations: u64,
+    evaluations: u64,
+    cut_short: bool,
+    notes: &'a [String],
+    waypoints: Vec<[f64; 2]>,
+}
+
+pub fn plan_command(
+    map_path: &Path,
+    start: [f64; 2],
+    goal: [f64; 2],
+    planner: Option<String>,
+    seed: Option<u64>,
+    svg: Option<&Path>,
+    config: Option<&Path>,
+) -> Result<()> {
+    let config = load_config(config)?;
+    let planner = planner.unwrap_or_else(|| config.planner.clone());
+    let seed = seed.or(config.seed).unwrap_or(0);
+    let ws = Workspace::load(map_path, config)?;
+    let query = ws.query(start, goal);
+    let (result, elapsed) = ws.run(&planner, &query, seed)?;
+    let plan =
+        result.with_context(|| format!("{planner} could not plan from {start:?} to {goal:?}"))?;
+    let reference = ws.run("any_angle", &query, seed)?.0.ok();
+    let out = PlanOutput {
+        planner: plan.planner,
+        seed,
+        length_m: plan.metrics.length_m,
+        turning_rad: plan.metrics.turning_rad,
+        turns: plan.metrics.turns,
+        min_clearance_m: plan.metrics.min_clearance_m,
+        collision_free: plan.metrics.collision_free,
+        time_ms: elapsed.as_secs_f64() * 1e3,
+        reference_length_m: reference.as_ref().map(|r| r.metrics.length_m),
+        goal: [plan.goal.x, plan.goal.y],
+        iterations: plan.stats.iterations,
+        evaluations: plan.stats.evaluations,
+        cut_short: plan.stats.cut_short,
+        notes: &plan.stats.notes,
+        waypoints: plan.waypoints.iter().map(|p| [p.x, p.y]).collect(),
+    };
+    println!("{}", serde_json::to_string(&out)?);
+    if let Some(svg) = svg {
+        let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
+        if let Some(r) = &reference {
+            drawing.add(Layer::path("any_angle (reference)", &r.waypoints));
+        }
+        drawing.add(Layer::path(plan.planner, &plan.waypoints));
+        drawing.add(Layer::endpoints(query.start, plan.goal));
+        std::fs::write(svg, drawing.to_svg())
+            .with_context(|| format!("writing {}", svg.display()))?;
+    }
+    Ok(())
+}
+
+pub fn render_command(
+    map_path: &Path,
+    start: [f64; 2],
+    goal: [f64; 2],
+    planners: &[String],
+    seed: u64,
+    out: &Path,
+    config: Option<&Path>,
+) -> Result<()> {
+    let ws = Workspace::load(map_path, load_config(config)?)?;
+    let query = ws.query(start, goal);
+    let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
+    for name in planners {
+        match ws.run(name, &query, seed)?.0 {
+            Ok(plan) => {
+                eprintln!(
+                    "{name}: {:.3} m, {:.3} rad, {} turns, collision-free: {}",
+                    plan.metrics.length_m,
+                    plan.metrics.turning_rad,
+                    plan.metrics.turns,
+                    plan.metrics.collision_free
+                );
+                drawing.add(Layer::path(name, &plan.waypoints));
+            }
+            Err(e) => eprintln!("{name}: {e}"),
+        }
+    }
+    drawing.add(Layer::endpoints(query.start, query.goal));
+    std::fs::write(out, drawing.to_svg()).with_context(|| format!("writing {}", out.display()))?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,126 @@
+//! Every map and scenario file under `../shared/maps/` must load (the foundation issue's
+//! requirement), and the loaded maps must look like what their sources say.
+
+use planner_io::*;
+use std::path::PathBuf;
+
+fn shared() -> PathBuf {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/maps");
+    assert!(
+        p.is_dir(),
+        "{} is missing: the tests need ../shared beside the repository",
+        p.display()
+    );
+    p
+}
+
+fn files(dir: &str, suffix: &str) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = walk(&shared().join(dir))
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(suffix))
+        .collect();
+    v.sort();
+    v
+}
+
+fn walk(dir: &PathBuf) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[test]
+fn every_map_server_map_loads() {
+    let mut yamls: Vec<PathBuf> = files("ros", ".yaml");
+    yamls.extend(
+        files("bench", ".yaml")
+            .into_iter()
+            .filter(|p| !p.to_string_lossy().ends_with(".scen.yaml")),
+    );
+    assert!(
+        yamls.len() >= 11,
+        "expected the 6 ROS and 5 bench maps, found {}",
+        yamls.len()
+    );
+    for y in yamls {
+        let map = load_map_server(&y).unwrap_or_else(|e| panic!("{e}"));
+        let free = map.data().iter().filter(|&&v| v == 0).count();
+        let occupied = map.data().iter().filter(|&&v| v >= 65).count();
+        assert!(
+            free > 0 && occupied > 0,
+            "{}: {free} free, {occupied} occupied cells",
+            y.display()
+        );
+    }
+}
+
+#[test]
+fn ros_maps_have_their_documented_sizes() {
+    let size = |p: &str| {
+        let m = load_map_server(&shared().join(p)).unwrap();
+        (m.width(), m.height(), m.info().resolution)
+    };
+    assert_eq!(size("ros/nav2_depot/depot.yaml"), (604, 307, 0.05));
+    // GIMP comment line in the PGM header.
+    assert_eq!(
+        size("ros/nav2_warehouse/warehouse.yaml"),
+        (1006, 1674, 0.03)
+    );
+    // RGB PNG.
+    assert_eq!(
+        size("ros/aws_small_warehouse_005/map.yaml"),
+        (286, 423, 0.05)
+    );
+    assert_eq!(size("bench/substation_1000.yaml"), (1000, 1000, 0.5));
+}
+
+#[test]
+fn every_moving_ai_map_and_scenario_loads() {
+    let maps = files("movingai", ".map");
+    assert_eq!(maps.len(), 8);
+    for m in &maps {
+        load_movingai_map(m).unwrap_or_else(|e| panic!("{e}"));
+    }
+    for s in files("movingai", ".scen") {
+        let rows = load_movingai_scenarios(&s).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!rows.is_empty(), "{}", s.display());
+        // The map column's base name names a map we have.
+        assert!(
+            maps.iter()
+                .any(|m| m.file_name().unwrap().to_string_lossy() == rows[0].map),
+            "{}",
+            rows[0].map
+        );
+    }
+}
+
+#[test]
+fn every_bench_scenario_file_loads_with_points_inside_its_map() {
+    let scens = files("bench", ".scen.yaml");
+    assert_eq!(scens.len(), 5);
+    for s in scens {
+        let (file, map_path) = load_scenario_file(&s).unwrap_or_else(|e| panic!("{e}"));
+        let map = load_map_server(&map_path).unwrap();
+        for sc in &file.scenarios {
+            assert!(
+                map.info().world_to_cell(sc.start()).is_some(),
+                "{}: {} start",
+                s.display(),
+                sc.name
+            );
+            assert!(
+                map.info().world_to_cell(sc.goal()).is_some(),
+                "{}: {} goal",
+                s.display(),
+                sc.name
+            );
+        }
+    }
+}
