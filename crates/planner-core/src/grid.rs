@@ -253,6 +253,25 @@ mod tests {
         assert!(GridMap::new(info(2, 2), vec![-1, 0, 50, 100]).is_ok());
     }
 
+    proptest::proptest! {
+        /// world -> cell -> world lands within half a cell (on each grid axis) of where it started,
+        /// for any origin yaw.
+        #[test]
+        fn world_cell_world_round_trip(
+            ox in -50.0f64..50.0, oy in -50.0f64..50.0, yaw in -3.2f64..3.2, res in 0.01f64..2.0,
+            fx in 0.0f64..1.0, fy in 0.0f64..1.0,
+        ) {
+            let i = MapInfo { width: 40, height: 30, resolution: res, origin: Pose2::new(ox, oy, yaw) };
+            let p = i.grid_to_world(Point2::new(fx * 40.0, fy * 30.0));
+            let c = i.world_to_cell(p).expect("inside by construction");
+            let back = i.cell_to_world(c);
+            let g0 = i.world_to_grid(p);
+            let g1 = i.world_to_grid(back);
+            proptest::prop_assert!((g0.x - g1.x).abs() <= 0.5 + 1e-9 && (g0.y - g1.y).abs() <= 0.5 + 1e-9);
+            proptest::prop_assert!((p - back).norm() <= res * std::f64::consts::FRAC_1_SQRT_2 + 1e-9);
+        }
+    }
+
     #[test]
     fn transforms_honour_yaw() {
         let i = MapInfo {

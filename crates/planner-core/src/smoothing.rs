@@ -33,6 +33,31 @@ mod tests {
     use crate::geometry::Pose2;
     use crate::grid::MapInfo;
 
+    use crate::astar::astar_cells;
+    use crate::planner::PlanContext;
+    use crate::test_support::{random_grid, rng};
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(96))]
+        /// On random grids, for the A* staircase and for a random feasible detour through it, the
+        /// delete operation keeps the ends, never lengthens the path and never makes it collide.
+        #[test]
+        fn never_lengthens_nor_collides(seed in any::<u64>(), density in 0.0f64..0.35) {
+            let (grid, start, goal) = random_grid(seed, 20, 16, density);
+            let mut r = rng(seed);
+            let Ok((cells, _)) = astar_cells(&grid, start, goal, &PlanContext::never_interrupted(&mut r)) else {
+                return Ok(());
+            };
+            let path: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
+            let out = delete_redundant(&grid, &path);
+            prop_assert_eq!(out.first(), path.first());
+            prop_assert_eq!(out.last(), path.last());
+            prop_assert!(crate::metrics::path_length(&out) <= crate::metrics::path_length(&path) + 1e-9);
+            prop_assert!(crate::raycast::path_is_free(&grid, &out));
+        }
+    }
+
     #[test]
     fn staircase_around_a_block_keeps_only_the_needed_corner() {
         // 6x6 grid, one blocked cell at (2, 2).

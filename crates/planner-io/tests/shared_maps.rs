@@ -124,3 +124,34 @@ fn every_bench_scenario_file_loads_with_points_inside_its_map() {
         }
     }
 }
+
+/// The shipped parameter file loads, and says exactly the built-in defaults (so the comments in
+/// it tell the truth).
+#[test]
+fn shipped_config_is_the_defaults() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/planner.yaml");
+    let config = load_planner_config(&path).unwrap();
+    assert_eq!(config, planner_core::config::PlannerConfig::default());
+}
+
+/// A typo inside a section is an error that names the key.
+#[test]
+fn config_typos_are_errors() {
+    let dir = std::env::temp_dir().join(format!("planner-io-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("bad.yaml");
+    std::fs::write(
+        &p,
+        "patrol_planner:\n  ros__parameters:\n    costmap: {robot_raduis: 0.3}\n",
+    )
+    .unwrap();
+    let err = load_planner_config(&p).unwrap_err().to_string();
+    assert!(err.contains("robot_raduis"), "{err}");
+    std::fs::write(
+        &p,
+        "patrol_planner:\n  ros__parameters:\n    planner: dijkstra\n",
+    )
+    .unwrap();
+    let err = load_planner_config(&p).unwrap_err().to_string();
+    assert!(err.contains("unknown planner"), "{err}");
+}

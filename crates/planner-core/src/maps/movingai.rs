@@ -123,7 +123,12 @@ pub fn parse_scenarios(text: &[u8]) -> Result<Vec<MovingAiScenario>, MapError> {
         let optimal_length: f64 = opt_text
             .parse()
             .map_err(|_| fmt_err(&format!("scen line {}: bad length `{opt_text}`", n + 1)))?;
-        let decimals = opt_text.split_once('.').map_or(0, |(_, frac)| frac.len()) as i32;
+        // The unit of the last printed digit. A number without a point comes from `%g`, which
+        // drops trailing zeros: `1` is 1.00000, six significant digits.
+        let last_digit = match opt_text.split_once('.') {
+            Some((_, frac)) => 10f64.powi(-(frac.len() as i32)),
+            None => 10f64.powi(opt_text.trim_start_matches('-').len() as i32 - 6),
+        };
         out.push(MovingAiScenario {
             bucket: num(0)?,
             map: words[1]
@@ -134,7 +139,7 @@ pub fn parse_scenarios(text: &[u8]) -> Result<Vec<MovingAiScenario>, MapError> {
             start: (num(4)?, num(5)?),
             goal: (num(6)?, num(7)?),
             optimal_length,
-            tolerance: 1.01 * 10f64.powi(-decimals) + 1e-9 * optimal_length,
+            tolerance: 1.01 * last_digit + 1e-9 * optimal_length,
         });
     }
     Ok(out)
@@ -185,5 +190,8 @@ mod tests {
         assert_eq!(v10[0].goal, (87, 201));
         assert!((v10[0].tolerance - (0.0101 + 244.95e-9)).abs() < 1e-12);
         assert!(parse_scenarios(b"version 1\n0 a.map 1 1 0 0\n").is_err());
+        // `%g` integers carry six significant digits.
+        let g = parse_scenarios(b"version 1\n0 a.map 9 9 1 1 1 2 1\n").unwrap();
+        assert!((g[0].tolerance - (1.01e-5 + 1e-9)).abs() < 1e-15);
     }
 }

@@ -1,0 +1,206 @@
+//! The `patrol-plan` binary, run as a user runs it, on the shared maps.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn shared(p: &str) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/maps");
+    assert!(
+        root.is_dir(),
+        "{} is missing: the tests need ../shared beside the repository",
+        root.display()
+    );
+    root.join(p)
+}
+
+fn patrol_plan(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_patrol-plan"))
+        .args(args)
+        .output()
+        .expect("runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// A* matches the published optimal length of every scenario of the small Moving AI maps.
+#[test]
+fn movingai_small_maps_all_pass() {
+    for (map, scen, n) in [
+        ("maze-32-32-2.map", "maze-32-32-2-random-1.scen", 333),
+        ("room-32-32-4.map", "room-32-32-4-random-1.scen", 341),
+        ("random-32-32-20.map", "random-32-32-20-random-1.scen", 409),
+        ("arena.map", "arena.map.scen", 160),
+    ] {
+        let m = shared(&format!("movingai/{map}"));
+        let s = shared(&format!("movingai/{scen}"));
+        let (ok, stdout, stderr) = patrol_plan(&[
+            "movingai",
+            "--map",
+            m.to_str().unwrap(),
+            "--scen",
+            s.to_str().unwrap(),
+        ]);
+        assert!(ok, "{map}: {stdout}{stderr}");
+        assert_eq!(
+            stdout.lines().last().unwrap(),
+            format!("{n} passed, 0 failed"),
+            "{map}"
+        );
+    }
+}
+
+/// A wrong optimum is reported as a failure with a non-zero exit: the check can fail.
+#[test]
+fn movingai_reports_a_wrong_optimum() {
+    let dir = std::env::temp_dir().join(format!("patrol-plan-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scen = dir.join("arena.map.scen");
+    // The first arena row has optimum 1; claim 2.
+    std::fs::write(
+        &scen,
+        "version 1\n0\tmaps/dao/arena.map\t49\t49\t1\t11\t1\t12\t2\n",
+    )
+    .unwrap();
+    let m = shared("movingai/arena.map");
+    let (ok, stdout, _) = patrol_plan(&[
+        "movingai",
+        "--map",
+        m.to_str().unwrap(),
+        "--scen",
+        scen.to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(stdout.ends_with("0 passed, 1 failed\n"), "{stdout}");
+}
+
+/// `plan` prints one JSON object with the documented fields, on a map_server map.
+#[test]
+fn plan_prints_the_documented_json() {
+    let map = shared("bench/datacenter_100.yaml");
+    let svg = std::env::temp_dir().join(format!("patrol-plan-{}.svg", std::process::id()));
+    let (ok, stdout, stderr) = patrol_plan(&[
+        "plan",
+        "--map",
+        map.to_str().unwrap(),
+        "--start",
+        "0.1,0.1",
+        "--goal",
+        "19.9,19.9",
+        "--planner",
+        "astar",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    for key in [
+        "planner",
+        "seed",
+        "length_m",
+        "turning_rad",
+        "turns",
+        "min_clearance_m",
+        "collision_free",
+        "time_ms",
+        "reference_length_m",
+        "waypoints",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {stdout}");
+    }
+    assert_eq!(v["collision_free"], true);
+    let len = v["length_m"].as_f64().unwrap();
+    let reference = v["reference_length_m"].as_f64().unwrap();
+    // The straight line is 28.14 m; cabinets force a detour; any-angle is never longer than A*.
+    assert!(
+        reference > 28.14 && reference <= len,
+        "{reference} vs {len}"
+    );
+    let wp = v["waypoints"].as_array().unwrap();
+    assert_eq!(wp[0], serde_json::json!([0.1, 0.1]));
+    assert_eq!(wp[wp.len() - 1], serde_json::json!([19.9, 19.9]));
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(picture.starts_with("<svg") && picture.contains("<polyline"));
+}
+
+/// Bad requests fail with a reason, not a panic.
+#[test]
+fn plan_rejects_bad_requests_with_a_reason() {
+    let map = shared("bench/datacenter_100.yaml");
+    let m = map.to_str().unwrap();
+    let (ok, _, stderr) =
+        patrol_plan(&["plan", "--map", m, "--start", "0.1,0.1", "--goal", "25,5"]);
+    assert!(!ok && stderr.contains("outside the map"), "{stderr}");
+    let (ok, _, stderr) = patrol_plan(&[
+        "plan",
+        "--map",
+        m,
+        "--start",
+        "0.1,0.1",
+        "--goal",
+        "5,5",
+        "--planner",
+        "nope",
+    ]);
+    assert!(!ok && stderr.contains("unknown planner"), "{stderr}");
+    let (ok, _, stderr) = patrol_plan(&["plan", "--map", m, "--start", "nan,0", "--goal", "5,5"]);
+    assert!(!ok && stderr.contains("finite"), "{stderr}");
+}
+
+/// `bench` writes one row per scenario x planner with the documented fields, and a Markdown table.
+#[test]
+fn bench_writes_rows_and_markdown() {
+    let scen = shared("bench/substation_20_complex.scen.yaml");
+    let dir = std::env::temp_dir().join(format!("patrol-plan-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (json, md) = (dir.join("b.json"), dir.join("b.md"));
+    let (ok, _, stderr) = patrol_plan(&[
+        "bench",
+        "--scenarios",
+        scen.to_str().unwrap(),
+        "--planners",
+        "astar,any_angle",
+        "--runs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+        "--markdown",
+        md.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(rows.len(), 2 * 2);
+    for r in &rows {
+        for key in [
+            "map",
+            "scenario",
+            "planner",
+            "runs",
+            "successes",
+            "collision_free",
+            "length_m_best",
+            "length_m_mean",
+            "turning_rad_best",
+            "turning_rad_mean",
+            "min_clearance_m_mean",
+            "time_ms_median",
+            "reference_length_m",
+        ] {
+            assert!(r.get(key).is_some(), "missing {key}");
+        }
+        assert_eq!(r["successes"], 2);
+        assert_eq!(r["collision_free"], 2);
+        assert!(
+            r["length_m_mean"].as_f64().unwrap()
+                >= r["reference_length_m"].as_f64().unwrap() - 1e-6
+        );
+    }
+    let table = std::fs::read_to_string(&md).unwrap();
+    assert!(
+        table.contains("| substation_20_complex | lower_right_to_upper_left | any_angle |"),
+        "{table}"
+    );
+}
