@@ -26,6 +26,7 @@ pub mod inflation;
 pub mod maps;
 pub mod metrics;
 pub mod planner;
+pub mod potential;
 pub mod raycast;
 pub mod registry;
 pub mod smoothing;

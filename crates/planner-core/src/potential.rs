@@ -1,0 +1,486 @@
+//! The artificial potential field (patrol car paper eq. 1–9) and its local-minimum escape by a
+//! virtual traction point (substation paper eq. 3–11). Planner `apf` uses it alone; the swarms use
+//! its path as their first global best; the ant colony (issue 6) reuses the field.
+//!
+//! Potential of a cell at distance `d_g` (m) from the goal and `rho` (m, from the distance
+//! transform) from the nearest obstacle:
+//! - attraction, eq. 4: `0.5 * epsilon * d_g^2`;
+//! - repulsion, eq. 1 with the goal-distance factor of eq. 9:
+//!   `0.5 * eta * (1/rho - 1/rho0)^2 * (1 - exp(-d_g^2 / R^2))` for `rho < rho0`, else 0, where `R`
+//!   is the chassis radius, so the repulsion vanishes at the goal and a goal beside an obstacle
+//!   stays reachable.
+//!
+//! The path descends the potential over the 8-neighbour grid (the same moves as A*: no corner
+//! cutting, no revisits). It is stalled (a local minimum) when no unvisited neighbour is lower, or
+//! when it moved less than `stall_distance` over the last `stall_window` steps (the substation
+//! paper's detection). Then it escapes: the obstacle that blocks the way to the goal is found by
+//! sweeping rays from the robot away from the goal direction, alternately left and right, until one
+//! is clear; the last blocked ray's hit point is "the obstacle at the outermost end of the U".
+//! Around it a circle of radius `r` gives a tangent point (eq. 3–5) and a virtual traction point
+//! `d` beyond it along the robot-tangent line (the paper's text; its eq. 6–8 are garbled in the
+//! source and contradict the text, see ALGORITHMS.md). The path then descends a field whose
+//! attraction pulls towards the traction point with a gain that grows exponentially with the steps
+//! spent escaping (eq. 10's speed-up term `iota^n`, switched on by the stall, eq. 11) until it
+//! reaches the traction point and the goal's attraction takes over again. Escapes are bounded by a
+//! step budget; when it runs out the caller falls back to A* and says so.
+
+use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
+use crate::inflation::PlanningGrid;
+use crate::raycast::line_of_sight;
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the field and of its escape. Distances in metres.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ApfParams {
+    /// epsilon of eq. 4: attraction gain (1/m^2 of potential per m^2). Default 1.0.
+    pub attractive_gain: f64,
+    /// eta of eq. 1: repulsion gain. Default 4.0: enough to keep a patrol car's path off the
+    /// inflated band where it has room, not so much that it cannot pass a 1 m aisle.
+    pub repulsive_gain: f64,
+    /// rho0 of eq. 1: distance (m) within which obstacles repel. Default 1.0.
+    pub influence_distance: f64,
+    /// R of eq. 9: the chassis radius (m). Default 0.25.
+    pub chassis_radius: f64,
+    /// Stall detection: the window (steps) over which the distance moved is measured. Default 8.
+    pub stall_window: usize,
+    /// Stall detection: the path is stalled when it moved less than this (m) over the window.
+    /// Default 0.3.
+    pub stall_distance: f64,
+    /// r of eq. 3–5: radius (m) of the circle around the blocking obstacle's end. Default 1.0.
+    pub traction_radius: f64,
+    /// d of eq. 7–8: distance (m) of the traction point beyond the tangent point. Default 1.0.
+    pub traction_distance: f64,
+    /// iota of eq. 10 (> 1): growth per step of the traction gain while escaping. Default 1.2.
+    pub traction_growth: f64,
+    /// Angular step (deg) of the ray sweep that finds the obstacle's end. Default 5.
+    pub sweep_step_deg: f64,
+    /// Total step budget, as a multiple of (width + height) of the grid. Default 4.
+    pub step_budget_factor: f64,
+}
+
+impl Default for ApfParams {
+    fn default() -> Self {
+        Self {
+            attractive_gain: 1.0,
+            repulsive_gain: 4.0,
+            influence_distance: 1.0,
+            chassis_radius: 0.25,
+            stall_window: 8,
+            stall_distance: 0.3,
+            traction_radius: 1.0,
+            traction_distance: 1.0,
+            traction_growth: 1.2,
+            sweep_step_deg: 5.0,
+            step_budget_factor: 4.0,
+        }
+    }
+}
+
+impl ApfParams {
+    pub fn validate(&self) -> Result<(), crate::config::ParamError> {
+        use crate::config::ParamError;
+        let positive = [
+            ("apf.attractive_gain", self.attractive_gain),
+            ("apf.influence_distance", self.influence_distance),
+            ("apf.chassis_radius", self.chassis_radius),
+            ("apf.traction_radius", self.traction_radius),
+            ("apf.traction_distance", self.traction_distance),
+            ("apf.sweep_step_deg", self.sweep_step_deg),
+            ("apf.step_budget_factor", self.step_budget_factor),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ParamError::new(
+                    name,
+                    format!("{v} must be finite and positive"),
+                ));
+            }
+        }
+        if !(self.repulsive_gain.is_finite() && self.repulsive_gain >= 0.0) {
+            return Err(ParamError::new(
+                "apf.repulsive_gain",
+                "must be finite and non-negative",
+            ));
+        }
+        if !(self.traction_growth.is_finite() && self.traction_growth > 1.0) {
+            return Err(ParamError::new(
+                "apf.traction_growth",
+                "must be finite and greater than 1",
+            ));
+        }
+        if self.stall_window == 0
+            || !(self.stall_distance.is_finite() && self.stall_distance >= 0.0)
+        {
+            return Err(ParamError::new(
+                "apf.stall_window",
+                "the window must be at least one step, the distance finite",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The field over one planning grid and goal.
+pub struct PotentialField<'a> {
+    grid: &'a PlanningGrid,
+    params: &'a ApfParams,
+    goal: Point2,
+}
+
+impl<'a> PotentialField<'a> {
+    /// `goal` in grid coordinates.
+    pub fn new(grid: &'a PlanningGrid, params: &'a ApfParams, goal: Point2) -> Self {
+        Self { grid, params, goal }
+    }
+
+    /// Repulsion of eq. 1 at distance `rho` (m) from the nearest obstacle.
+    pub fn repulsion(&self, rho: f64) -> f64 {
+        let p = self.params;
+        if rho >= p.influence_distance {
+            0.0
+        } else {
+            let rho = rho.max(1e-6);
+            0.5 * p.repulsive_gain * (1.0 / rho - 1.0 / p.influence_distance).powi(2)
+        }
+    }
+
+    /// Eq. 9's factor: 0 at the goal, towards 1 a few chassis radii away.
+    pub fn goal_factor(&self, p: Point2) -> f64 {
+        let d2 = ((p - self.goal) * self.grid.resolution()).norm_squared();
+        1.0 - (-d2 / self.params.chassis_radius.powi(2)).exp()
+    }
+
+    /// The potential of eq. 7 (with eq. 9's repulsion) at a cell, attracted towards `target`
+    /// (the goal, or a traction point) with `gain`.
+    pub fn potential_towards(&self, c: Cell, target: Point2, gain: f64) -> f64 {
+        let p = c.center();
+        let d2 = ((p - target) * self.grid.resolution()).norm_squared();
+        0.5 * gain * d2 + self.repulsion(self.grid.clearance(c)) * self.goal_factor(p)
+    }
+
+    /// The potential at a cell.
+    pub fn potential(&self, c: Cell) -> f64 {
+        self.potential_towards(c, self.goal, self.params.attractive_gain)
+    }
+
+    /// The resultant force (eq. 8, `-grad Phi`) at a cell, by central differences over the
+    /// neighbouring cells (per metre). Used by the ant colony's heuristic.
+    pub fn force(&self, c: Cell) -> Vector2 {
+        let h = 2.0 * self.grid.resolution();
+        let phi = |dx, dy| {
+            let n = c.offset(dx, dy);
+            if self.grid.info().contains(n) {
+                self.potential(n)
+            } else {
+                self.potential(c)
+            }
+        };
+        -Vector2::new((phi(1, 0) - phi(-1, 0)) / h, (phi(0, 1) - phi(0, -1)) / h)
+    }
+}
+
+/// Which way around the obstacle the traction point lies, seen from the robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Counter-clockwise from the robot-obstacle direction.
+    Left,
+    Right,
+}
+
+/// The virtual traction point of eq. 3–8 (in any consistent unit): the tangent from the robot
+/// `x0` to the circle of radius `r` around the obstacle point `a` (eq. 3: `l = |a - x0|`,
+/// `alpha = asin(r / l)`, `s = sqrt(l^2 - r^2)`, eq. 4–5: the tangent point `s` along the direction
+/// turned by `alpha` from the robot-obstacle direction), then `d` further along the same line.
+/// `None` when the robot is inside the circle (no tangent exists).
+pub fn traction_point(
+    x0: Point2,
+    a: Point2,
+    r: f64,
+    d: f64,
+    side: Side,
+) -> Option<(Point2, Point2)> {
+    let to_a = a - x0;
+    let l = to_a.norm();
+    if l <= r {
+        return None;
+    }
+    let alpha = (r / l).asin();
+    let s = (l * l - r * r).sqrt();
+    let theta = to_a.y.atan2(to_a.x) + if side == Side::Left { alpha } else { -alpha };
+    let dir = Vector2::new(theta.cos(), theta.sin());
+    let tangent = x0 + dir * s;
+    Some((tangent, tangent + dir * d))
+}
+
+/// Why the potential field could not reach the goal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ApfFailure {
+    pub reason: String,
+    pub steps: usize,
+    pub escapes: usize,
+}
+
+/// A potential-field path and what it took.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ApfPath {
+    pub cells: Vec<Cell>,
+    /// Local minima met (each escaped by a traction point).
+    pub escapes: usize,
+}
+
+/// Descends the field from `start` to `goal` (both free cells), escaping local minima.
+pub fn descend(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    start: Cell,
+    goal: Cell,
+) -> Result<ApfPath, ApfFailure> {
+    descend_with(grid, params, start, goal, true)
+}
+
+/// The same, with escapes switched off: the plain APF that stalls in a U trap (for comparison
+/// and tests).
+pub fn descend_plain(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    start: Cell,
+    goal: Cell,
+) -> Result<ApfPath, ApfFailure> {
+    descend_with(grid, params, start, goal, false)
+}
+
+fn descend_with(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    start: Cell,
+    goal: Cell,
+    escape: bool,
+) -> Result<ApfPath, ApfFailure> {
+    let field = PotentialField::new(grid, params, goal.center());
+    let budget = (params.step_budget_factor * (grid.width() + grid.height()) as f64) as usize;
+    let stall_cells = params.stall_distance / grid.resolution();
+    let mut visited = std::collections::HashSet::new();
+    let mut cells = vec![start];
+    visited.insert(start);
+    let mut escapes = 0;
+    // The active traction point and the steps spent towards it.
+    let mut traction: Option<(Point2, usize)> = None;
+    let mut last_escape_at = 0;
+    let fail = |reason: &str, steps: usize, escapes: usize| ApfFailure {
+        reason: reason.into(),
+        steps,
+        escapes,
+    };
+    while *cells.last().unwrap() != goal {
+        let steps = cells.len() - 1;
+        if steps >= budget {
+            return Err(fail("the step budget ran out", steps, escapes));
+        }
+        let cur = *cells.last().unwrap();
+        let (target, gain) = match traction {
+            Some((t, n)) => (
+                t,
+                params.attractive_gain * (1.0 + params.traction_growth.powi(n.min(200) as i32)),
+            ),
+            None => (goal.center(), params.attractive_gain),
+        };
+        let best = admissible_moves(grid, cur)
+            .filter(|n| !visited.contains(n))
+            .map(|n| (field.potential_towards(n, target, gain), n))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+        let Some((p_best, next)) = best else {
+            // Every neighbour is blocked or already on the path.
+            return Err(fail("boxed in by its own path", steps, escapes));
+        };
+        if traction.is_none() {
+            let here = field.potential_towards(cur, target, gain);
+            let window_stall = steps >= last_escape_at + params.stall_window
+                && (cells[steps - params.stall_window].center() - cur.center()).norm()
+                    < stall_cells;
+            if p_best >= here || window_stall {
+                if !escape {
+                    return Err(fail("local minimum of the potential field", steps, escapes));
+                }
+                let Some(t) = find_traction_point(grid, params, cur, goal) else {
+                    return Err(fail(
+                        "no traction point leads out of the local minimum",
+                        steps,
+                        escapes,
+                    ));
+                };
+                escapes += 1;
+                last_escape_at = steps;
+                traction = Some((t, 0));
+                continue;
+            }
+        }
+        cells.push(next);
+        visited.insert(next);
+        if let Some((t, n)) = traction {
+            // Reached the traction point (or sees the goal): the goal's attraction takes over.
+            let arrived = (next.center() - t).norm() <= 1.0;
+            let sees_goal = line_of_sight(grid, next.center(), goal.center());
+            traction = if arrived || sees_goal {
+                None
+            } else {
+                Some((t, n + 1))
+            };
+            if traction.is_none() {
+                last_escape_at = cells.len() - 1;
+            }
+        }
+    }
+    Ok(ApfPath { cells, escapes })
+}
+
+/// The 8-neighbour moves A* allows from a cell (free, no corner cutting).
+fn admissible_moves(grid: &PlanningGrid, c: Cell) -> impl Iterator<Item = Cell> + '_ {
+    NEIGHBOURS_8.iter().filter_map(move |&(dx, dy)| {
+        let n = c.offset(dx, dy);
+        let ok = grid.is_free(n)
+            && (dx == 0
+                || dy == 0
+                || (grid.is_free(c.offset(dx, 0)) && grid.is_free(c.offset(0, dy))));
+        ok.then_some(n)
+    })
+}
+
+/// Sweeps rays from `cur` away from the goal direction, alternately left and right, for the first
+/// clear one; the previous (blocked) ray on that side hits the obstacle's outer end, around which
+/// eq. 3–8 place the traction point. Returns it in grid coordinates, inside a free cell.
+fn find_traction_point(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    cur: Cell,
+    goal: Cell,
+) -> Option<Point2> {
+    let res = grid.resolution();
+    let x0 = cur.center();
+    let to_goal = goal.center() - x0;
+    let theta_g = to_goal.y.atan2(to_goal.x);
+    let reach = to_goal
+        .norm()
+        .min(4.0 * (params.traction_radius + params.traction_distance) / res)
+        .max(2.0);
+    let hit = |theta: f64| -> Option<Point2> {
+        // The first blocked cell along the ray, if any within reach.
+        let end = x0 + Vector2::new(theta.cos(), theta.sin()) * reach;
+        let mut first = None;
+        crate::raycast::supercover(x0, end, |c| {
+            if grid.is_free(c) {
+                true
+            } else {
+                first = Some(c.center());
+                false
+            }
+        });
+        first
+    };
+    let step = params.sweep_step_deg.to_radians();
+    let steps = (std::f64::consts::PI / step).ceil() as i32;
+    let mut last_hit = [hit(theta_g), hit(theta_g)];
+    let (r, d) = (params.traction_radius / res, params.traction_distance / res);
+    for k in 1..=steps {
+        for (i, (sign, side)) in [(1.0, Side::Left), (-1.0, Side::Right)]
+            .into_iter()
+            .enumerate()
+        {
+            let theta = theta_g + sign * k as f64 * step;
+            match hit(theta) {
+                Some(h) => last_hit[i] = Some(h),
+                None => {
+                    // This side opens. The obstacle's end is the last blocked ray's hit point.
+                    let Some(a) = last_hit[i] else { continue };
+                    let candidate = traction_point(x0, a, r.min((a - x0).norm() * 0.9), d, side)
+                        .map(|(_, t)| t)
+                        .unwrap_or_else(|| x0 + Vector2::new(theta.cos(), theta.sin()) * d);
+                    if let Some(t) = pull_back_into_free(grid, x0, candidate) {
+                        return Some(t);
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The point nearest to `target` along `from -> target` that is in a free cell and visible from
+/// `from`, if the segment leaves `from`'s cell at all.
+fn pull_back_into_free(grid: &PlanningGrid, from: Point2, target: Point2) -> Option<Point2> {
+    for k in (1..=10).rev() {
+        let p = from + (target - from) * (k as f64 / 10.0);
+        if Cell::containing(p) != Cell::containing(from) && line_of_sight(grid, from, p) {
+            return Some(Cell::containing(p).center());
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::grid_from_rows;
+
+    #[test]
+    fn traction_point_on_a_hand_computed_case() {
+        // Robot at the origin, obstacle 10 away on +x, circle radius 6: l = 10, alpha =
+        // asin(0.6), s = 8, so the left tangent point is 8 * (0.8, 0.6) = (6.4, 4.8); 2 beyond it
+        // along the same line is (8, 6).
+        let (t, p) = traction_point(
+            Point2::origin(),
+            Point2::new(10.0, 0.0),
+            6.0,
+            2.0,
+            Side::Left,
+        )
+        .unwrap();
+        assert!((t - Point2::new(6.4, 4.8)).norm() < 1e-12);
+        assert!((p - Point2::new(8.0, 6.0)).norm() < 1e-12);
+        let (t, _) = traction_point(
+            Point2::origin(),
+            Point2::new(10.0, 0.0),
+            6.0,
+            2.0,
+            Side::Right,
+        )
+        .unwrap();
+        assert!((t - Point2::new(6.4, -4.8)).norm() < 1e-12);
+        // The tangent point is on the circle and the tangent is perpendicular to the radius.
+        let a = Point2::new(10.0, 0.0);
+        assert!(((t - a).norm() - 6.0).abs() < 1e-12);
+        assert!((t - Point2::origin()).dot(&(t - a)).abs() < 1e-9);
+        assert_eq!(
+            traction_point(Point2::origin(), a, 11.0, 2.0, Side::Left),
+            None
+        );
+    }
+
+    #[test]
+    fn eq9_repulsion_vanishes_at_the_goal() {
+        let grid = grid_from_rows(&["....", "..#.", "...."]);
+        let params = ApfParams {
+            influence_distance: 3.0,
+            ..ApfParams::default()
+        };
+        let goal = Cell::new(1, 1);
+        let field = PotentialField::new(&grid, &params, goal.center());
+        // The goal is next to an obstacle: repulsion is strong there...
+        assert!(field.repulsion(grid.clearance(goal)) > 0.1);
+        // ...but eq. 9's factor removes it at the goal, so the goal is the field's minimum there.
+        assert_eq!(field.goal_factor(goal.center()), 0.0);
+        assert_eq!(field.potential(goal), 0.0);
+        assert!(admissible_moves(&grid, goal).all(|n| field.potential(n) > 0.0));
+        // And away from the goal the factor tends to 1.
+        assert!(field.goal_factor(Cell::new(3, 2).center()) > 0.99);
+    }
+
+    #[test]
+    fn force_points_downhill() {
+        let grid = grid_from_rows(&["......", "......", "......"]);
+        let params = ApfParams::default();
+        let field = PotentialField::new(&grid, &params, Cell::new(5, 1).center());
+        let f = field.force(Cell::new(1, 1));
+        assert!(f.x > 0.0 && f.y.abs() < 1e-9);
+    }
+}

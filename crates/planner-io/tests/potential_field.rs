@@ -1,0 +1,42 @@
+//! The potential field on the substation paper's complex 20 x 20 map: its U trap is a local
+//! minimum of the plain field, and the virtual-traction escape leaves it.
+
+use planner_core::geometry::Point2;
+use planner_core::inflation::{InflationConfig, PlanningGrid};
+use planner_core::potential::{descend, descend_plain, ApfParams};
+use planner_core::raycast::path_is_free;
+use std::path::PathBuf;
+
+fn complex_map() -> PlanningGrid {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/maps/bench/substation_20_complex.yaml");
+    let map = planner_io::load_map_server(&p).unwrap();
+    PlanningGrid::new(&map, &InflationConfig::default()).unwrap()
+}
+
+#[test]
+fn plain_apf_stalls_in_the_u_trap_and_the_escape_leaves_it() {
+    let grid = complex_map();
+    let info = *grid.info();
+    // The map's `diagonal` scenario: from the lower left towards the upper right, straight into
+    // the U (closed at x = 9 and y = 7, open to the upper right).
+    let start = info.world_to_cell(Point2::new(0.5, 0.5)).unwrap();
+    let goal = info.world_to_cell(Point2::new(19.5, 19.5)).unwrap();
+    let params = ApfParams::default();
+    let stalled = descend_plain(&grid, &params, start, goal).unwrap_err();
+    assert!(stalled.reason.contains("local minimum"), "{stalled:?}");
+    // It stalls against the U's closed side: the goal is 19 cells up and right of the start, and
+    // the plain field gets nowhere near it.
+    assert!(stalled.steps < 20, "{stalled:?}");
+    let escaped = descend(&grid, &params, start, goal).unwrap();
+    assert!(escaped.escapes >= 1);
+    assert_eq!(*escaped.cells.last().unwrap(), goal);
+    let pts: Vec<_> = escaped.cells.iter().map(|c| c.center()).collect();
+    assert!(path_is_free(&grid, &pts));
+    eprintln!(
+        "stalled after {} steps; escaped with {} escapes in {} steps",
+        stalled.steps,
+        escaped.escapes,
+        escaped.cells.len()
+    );
+}
