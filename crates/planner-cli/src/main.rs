@@ -121,8 +121,16 @@ enum Command {
     Planners,
 }
 
-fn main() -> Result<()> {
-    match Cli::parse().command {
+fn main() {
+    // Errors are for users: one line of causes, no backtrace (even with RUST_BACKTRACE set).
+    if let Err(e) = run(Cli::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
         Command::Plan {
             map,
             start,

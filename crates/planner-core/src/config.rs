@@ -5,6 +5,8 @@
 //! `config/planner.yaml`); each planner family adds its own section here.
 
 use crate::inflation::InflationConfig;
+use crate::potential::ApfParams;
+use crate::swarm::SwarmParams;
 use serde::{Deserialize, Serialize};
 
 /// A parameter with a value it cannot take.
@@ -42,10 +44,14 @@ pub struct PlannerConfig {
     pub max_planning_time: f64,
     /// How the raw map becomes the planning grid.
     pub costmap: InflationConfig,
+    /// The potential field: planner `apf`, and the seed of the swarms.
+    pub apf: ApfParams,
+    /// The swarm planners (mocmcso, mocso, mopso, cmcso, cso, pso): table 3 of the patrol car paper.
+    pub swarm: SwarmParams,
 }
 
 pub fn default_planner() -> String {
-    "astar".into()
+    "mocmcso".into()
 }
 pub fn default_tolerance() -> f64 {
     0.25
@@ -63,6 +69,8 @@ impl Default for PlannerConfig {
             smoothing: None,
             max_planning_time: default_max_planning_time(),
             costmap: InflationConfig::default(),
+            apf: ApfParams::default(),
+            swarm: SwarmParams::default(),
         }
     }
 }
@@ -85,6 +93,8 @@ impl PlannerConfig {
                 ),
             ));
         }
-        self.costmap.validate()
+        self.costmap.validate()?;
+        self.apf.validate()?;
+        self.swarm.validate()
     }
 }

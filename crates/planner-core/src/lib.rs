@@ -30,6 +30,7 @@ pub mod potential;
 pub mod raycast;
 pub mod registry;
 pub mod smoothing;
+pub mod swarm;
 #[cfg(test)]
 pub(crate) mod test_support;
 

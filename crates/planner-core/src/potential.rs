@@ -180,6 +180,50 @@ impl<'a> PotentialField<'a> {
     }
 }
 
+/// Planner `apf`: the potential-field path alone (with its escapes). When even the escape cannot
+/// reach the goal within its step budget it reports that (`notes`, counter `apf_fallback`) and
+/// returns A*'s path instead, as the issue asks of the field everywhere.
+#[derive(Clone, Debug, Default)]
+pub struct ApfPlanner {
+    pub params: ApfParams,
+}
+
+impl crate::planner::Planner for ApfPlanner {
+    fn name(&self) -> &'static str {
+        "apf"
+    }
+
+    fn plan(
+        &self,
+        problem: &crate::planner::Problem<'_>,
+        ctx: &mut crate::planner::PlanContext<'_>,
+    ) -> Result<crate::planner::RawPlan, crate::planner::PlanError> {
+        let mut stats = crate::planner::PlanStats::default();
+        let cells = match descend(problem.grid, &self.params, problem.start, problem.goal) {
+            Ok(path) => {
+                stats
+                    .counters
+                    .insert("apf_escapes".into(), path.escapes as f64);
+                path.cells
+            }
+            Err(f) => {
+                stats.notes.push(format!(
+                    "the potential field failed ({} after {} steps and {} escapes); A*'s path is returned",
+                    f.reason, f.steps, f.escapes
+                ));
+                stats.counters.insert("apf_fallback".into(), 1.0);
+                crate::astar::astar_cells(problem.grid, problem.start, problem.goal, ctx)?.0
+            }
+        };
+        stats.iterations = cells.len() as u64;
+        Ok(crate::planner::RawPlan {
+            waypoints: cells.iter().map(|c| c.center()).collect(),
+            stats,
+            pareto: Vec::new(),
+        })
+    }
+}
+
 /// Which way around the obstacle the traction point lies, seen from the robot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Side {

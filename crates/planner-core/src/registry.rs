@@ -5,9 +5,21 @@ use crate::any_angle::AnyAngle;
 use crate::astar::AStar;
 use crate::config::{ParamError, PlannerConfig};
 use crate::planner::Planner;
+use crate::potential::ApfPlanner;
+use crate::swarm::{SwarmPlanner, Variant};
 
 /// Every selectable planner, in the order tables list them.
-pub const PLANNER_NAMES: &[&str] = &["astar", "any_angle"];
+pub const PLANNER_NAMES: &[&str] = &[
+    "astar",
+    "any_angle",
+    "apf",
+    "mocmcso",
+    "mocso",
+    "mopso",
+    "cmcso",
+    "cso",
+    "pso",
+];
 
 /// Checks a planner name, with the list of valid ones in the error.
 pub fn check_name(name: &str) -> Result<(), ParamError> {
@@ -27,9 +39,21 @@ pub fn check_name(name: &str) -> Result<(), ParamError> {
 /// Builds the named planner with the parameters of `config`.
 pub fn build(name: &str, config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
     config.costmap.validate()?;
+    config.apf.validate()?;
+    config.swarm.validate()?;
+    if let Some(&variant) = Variant::ALL.iter().find(|v| v.name() == name) {
+        return Ok(Box::new(SwarmPlanner {
+            variant,
+            params: config.swarm.clone(),
+            apf: config.apf.clone(),
+        }));
+    }
     match name {
         "astar" => Ok(Box::new(AStar)),
         "any_angle" => Ok(Box::new(AnyAngle)),
+        "apf" => Ok(Box::new(ApfPlanner {
+            params: config.apf.clone(),
+        })),
         other => check_name(other).map(|_| unreachable!("check_name accepted an unlisted name")),
     }
 }

@@ -1,0 +1,674 @@
+//! The patrol car paper's swarm planners (sections II.C–II.F, III), all on one driver:
+//!
+//! | planner | family | objective | seeking mutation | mixture ratio |
+//! |---|---|---|---|---|
+//! | `mocmcso` | cat swarm | Pareto (f1 length, f2 turning) | Cauchy, eq. 13 | linear, eq. 12 |
+//! | `mocso` | cat swarm | Pareto | uniform +-SRD | fixed |
+//! | `mopso` | particle swarm | Pareto | – | – |
+//! | `cmcso` | cat swarm | equal-weight scalar | Cauchy | linear |
+//! | `cso` | cat swarm | equal-weight scalar | uniform | fixed |
+//! | `pso` | particle swarm | equal-weight scalar | – | – |
+//!
+//! Every swarm is seeded by the potential field (APF path, or A* when the field cannot escape a
+//! local minimum; the result says which): its path is the first global best and the centre around
+//! which the population starts. A cat in seeking mode makes SMP copies, keeps one and moves CDC of
+//! the others' dimensions by `sigma * C` with `sigma = SRD * range` and `C` standard Cauchy
+//! (ALGORITHMS.md: the paper's "C(0, 1) uniform" contradicts the operator's name; `mutation:
+//! uniform` keeps the uniform variant for comparison). A cat in tracing mode follows eq. 10–11
+//! towards a leader from the archive, with the inertia falling linearly from 0.9 to 0.1 (table 3);
+//! a dimension that leaves its range is set to the bound and its velocity reversed (section II.C,
+//! tracing step 3). Particles follow the standard PSO update with personal bests.
+//!
+//! Decisions where the paper is silent, each a parameter: the fixed MR of MOCSO/CSO is 0.65 (the
+//! paper's own MOCSO setting in section II.D); MOPSO's "acceleration constant 3.5" is read as
+//! c1 + c2 = 3.5 (1.75 each: a larger sum makes PSO diverge); the single-objective variants
+//! minimise `w * L / L_seed + (1 - w) * Omega / Omega_seed`; the population starts within
+//! `init_spread` of each dimension's range around the seed.
+
+pub mod encoding;
+pub mod pareto;
+
+use crate::astar::astar_cells;
+use crate::config::ParamError;
+use crate::geometry::Point2;
+use crate::inflation::PlanningGrid;
+use crate::metrics::{path_length, total_turning};
+use crate::planner::{ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::potential::{descend, ApfParams};
+use crate::raycast::{blocked_length, path_is_free};
+use crate::smoothing::delete_redundant;
+use encoding::Encoding;
+use pareto::{dominates, Archive, Eval};
+use rand::Rng;
+use rand_distr::{Cauchy, Distribution};
+use serde::{Deserialize, Serialize};
+
+/// How seeking mode moves a dimension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mutation {
+    /// `sigma * C(0, 1)`, standard Cauchy: heavy-tailed, occasionally very long jumps.
+    Cauchy,
+    /// `sigma * U(-1, 1)`: never further than sigma.
+    Uniform,
+}
+
+/// Which path encoding the swarm uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EncodingChoice {
+    /// The paper's lateral encoding where the seed fits it without collision, else general.
+    Auto,
+    /// Always the general (free waypoint) encoding.
+    General,
+}
+
+/// Parameters of every swarm planner (table 3 defaults).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SwarmParams {
+    /// Cats / particles. Default 50.
+    pub population: usize,
+    /// i, the number of waypoints (cat dimension). Default 32.
+    pub waypoints: usize,
+    /// IT_max. Default 100.
+    pub iterations: usize,
+    /// Seeking memory pool: copies per seeking cat. Default 3.
+    pub smp: usize,
+    /// Seeking range of the selected dimension, as a share of its range. Default 0.05.
+    pub srd: f64,
+    /// Counts of dimensions to change, as a share. Default 0.8.
+    pub cdc: f64,
+    /// Eq. 12's MR_max and MR_min (linear schedule of MOCMCSO/CMCSO). Defaults 0.95, 0.15.
+    pub mr_max: f64,
+    pub mr_min: f64,
+    /// The fixed MR of MOCSO/CSO. Default 0.65.
+    pub mr_fixed: f64,
+    /// Tracing inertia, falling linearly from `inertia_max` to `inertia_min`. Defaults 0.9, 0.1.
+    pub inertia_max: f64,
+    pub inertia_min: f64,
+    /// c of eq. 10 (also PSO's c1 = c2). Default 2.
+    pub acceleration: f64,
+    /// Seeking mutation of MOCMCSO/CMCSO: cauchy (default) or uniform.
+    pub mutation: Mutation,
+    /// MOPSO's inertia and acceleration sum (c1 + c2). Defaults 0.25 and 3.5.
+    pub mopso_inertia: f64,
+    pub mopso_acceleration: f64,
+    /// Pareto archive size. Default 100.
+    pub archive_size: usize,
+    /// Weight of the length in eq. 21 (and in the scalar objective). Default 0.5.
+    pub length_weight: f64,
+    /// Initial spread around the seed, as a share of each dimension's range. Default 0.05.
+    pub init_spread: f64,
+    /// Path encoding: auto (default) or general.
+    pub encoding: EncodingChoice,
+}
+
+impl Default for SwarmParams {
+    fn default() -> Self {
+        Self {
+            population: 50,
+            waypoints: 32,
+            iterations: 100,
+            smp: 3,
+            srd: 0.05,
+            cdc: 0.8,
+            mr_max: 0.95,
+            mr_min: 0.15,
+            mr_fixed: 0.65,
+            inertia_max: 0.9,
+            inertia_min: 0.1,
+            acceleration: 2.0,
+            mutation: Mutation::Cauchy,
+            mopso_inertia: 0.25,
+            mopso_acceleration: 3.5,
+            archive_size: 100,
+            length_weight: 0.5,
+            init_spread: 0.05,
+            encoding: EncodingChoice::Auto,
+        }
+    }
+}
+
+impl SwarmParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let counts = [
+            ("swarm.population", self.population),
+            ("swarm.waypoints", self.waypoints),
+            ("swarm.iterations", self.iterations),
+            ("swarm.smp", self.smp),
+            ("swarm.archive_size", self.archive_size),
+        ];
+        for (name, v) in counts {
+            if v == 0 {
+                return Err(ParamError::new(name, "must be at least 1"));
+            }
+        }
+        let shares = [
+            ("swarm.srd", self.srd),
+            ("swarm.cdc", self.cdc),
+            ("swarm.mr_max", self.mr_max),
+            ("swarm.mr_min", self.mr_min),
+            ("swarm.mr_fixed", self.mr_fixed),
+            ("swarm.length_weight", self.length_weight),
+            ("swarm.init_spread", self.init_spread),
+        ];
+        for (name, v) in shares {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(ParamError::new(name, format!("{v} is outside 0..=1")));
+            }
+        }
+        for (name, v) in [
+            ("swarm.inertia_max", self.inertia_max),
+            ("swarm.inertia_min", self.inertia_min),
+            ("swarm.acceleration", self.acceleration),
+            ("swarm.mopso_inertia", self.mopso_inertia),
+            ("swarm.mopso_acceleration", self.mopso_acceleration),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ParamError::new(
+                    name,
+                    format!("{v} is not finite and non-negative"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Eq. 12: the mixture ratio at iteration `t` of `it_max`.
+    pub fn linear_mr(&self, t: usize) -> f64 {
+        self.mr_max - (self.mr_max - self.mr_min) * t as f64 / self.iterations as f64
+    }
+
+    /// Table 3's inertia schedule, 0.9 -> 0.1 linearly.
+    pub fn inertia(&self, t: usize) -> f64 {
+        self.inertia_max - (self.inertia_max - self.inertia_min) * t as f64 / self.iterations as f64
+    }
+}
+
+/// The six variants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    Mocmcso,
+    Mocso,
+    Mopso,
+    Cmcso,
+    Cso,
+    Pso,
+}
+
+impl Variant {
+    pub const ALL: [Variant; 6] = [
+        Variant::Mocmcso,
+        Variant::Mocso,
+        Variant::Mopso,
+        Variant::Cmcso,
+        Variant::Cso,
+        Variant::Pso,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Mocmcso => "mocmcso",
+            Variant::Mocso => "mocso",
+            Variant::Mopso => "mopso",
+            Variant::Cmcso => "cmcso",
+            Variant::Cso => "cso",
+            Variant::Pso => "pso",
+        }
+    }
+
+    fn multi_objective(self) -> bool {
+        matches!(self, Variant::Mocmcso | Variant::Mocso | Variant::Mopso)
+    }
+
+    fn is_cat(self) -> bool {
+        !matches!(self, Variant::Mopso | Variant::Pso)
+    }
+
+    /// The Cauchy-mutation variants use eq. 12's schedule and the configured mutation; the classic
+    /// cat swarms a fixed MR and uniform mutation.
+    fn improved(self) -> bool {
+        matches!(self, Variant::Mocmcso | Variant::Cmcso)
+    }
+}
+
+/// A swarm planner.
+#[derive(Clone, Debug)]
+pub struct SwarmPlanner {
+    pub variant: Variant,
+    pub params: SwarmParams,
+    /// The potential field that seeds the swarm.
+    pub apf: ApfParams,
+}
+
+impl Planner for SwarmPlanner {
+    fn name(&self) -> &'static str {
+        self.variant.name()
+    }
+
+    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
+        let grid = problem.grid;
+        let mut stats = PlanStats::default();
+        let raw = seed_path(problem, &self.apf, ctx, &mut stats)?;
+        let allow_lateral = self.params.encoding == EncodingChoice::Auto;
+        // The paper's first global best is the field's path itself, sampled at the stations
+        // (section II.E step 2). Where those samples cut a corner into an obstacle, the
+        // string-pulled path (delete operation) is expressed instead.
+        let lateral = allow_lateral
+            .then(|| {
+                Encoding::lateral(
+                    grid,
+                    problem.start_point,
+                    problem.goal_point,
+                    self.params.waypoints,
+                )
+            })
+            .flatten()
+            .and_then(|enc| {
+                enc.encode(&raw)
+                    .filter(|x| path_is_free(grid, &enc.decode(x)))
+                    .map(|x| (enc, x))
+            });
+        let (enc, seed_x) = match lateral {
+            Some(chosen) => chosen,
+            None => {
+                stats.notes.push(
+                    "seed: string-pulled, since the raw path does not fit the lateral stations"
+                        .into(),
+                );
+                Encoding::choose(
+                    grid,
+                    &delete_redundant(grid, &raw),
+                    self.params.waypoints,
+                    allow_lateral,
+                )
+            }
+        };
+        stats
+            .notes
+            .push(format!("encoding: {}, dimension {}", enc.name(), enc.dim()));
+        let mut search = Search::new(grid, &enc, &self.params, self.variant);
+        let (best, pareto) = search.run(&seed_x, ctx, &mut stats);
+        if best == seed_x {
+            stats
+                .notes
+                .push("the swarm did not improve on its seed; the seed path is returned".into());
+        }
+        stats.counters.insert(
+            "improved_on_seed".into(),
+            if best == seed_x { 0.0 } else { 1.0 },
+        );
+        let pareto = pareto
+            .into_iter()
+            .map(|(x, e)| ParetoMember {
+                f1_length_m: e.f1,
+                f2_turning_rad: e.f2,
+                waypoints: enc.decode(&x),
+            })
+            .collect();
+        Ok(RawPlan {
+            waypoints: enc.decode(&best),
+            stats,
+            pareto,
+        })
+    }
+}
+
+/// The swarm's first global best: the potential-field path, or A*'s when the field cannot reach
+/// the goal, as a feasible polyline from the exact start to the exact goal.
+fn seed_path(
+    problem: &Problem<'_>,
+    apf: &ApfParams,
+    ctx: &PlanContext<'_>,
+    stats: &mut PlanStats,
+) -> Result<Vec<Point2>, PlanError> {
+    let grid = problem.grid;
+    let cells = match descend(grid, apf, problem.start, problem.goal) {
+        Ok(path) => {
+            stats
+                .counters
+                .insert("apf_escapes".into(), path.escapes as f64);
+            stats.notes.push(format!(
+                "seed: potential field ({} local minima escaped)",
+                path.escapes
+            ));
+            path.cells
+        }
+        Err(failure) => {
+            stats.notes.push(format!(
+                "seed: A*, because the potential field failed ({}, after {} steps)",
+                failure.reason, failure.steps
+            ));
+            stats.counters.insert("apf_fallback".into(), 1.0);
+            astar_cells(grid, problem.start, problem.goal, ctx)?.0
+        }
+    };
+    let mut pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
+    pts[0] = problem.start_point;
+    *pts.last_mut().expect("non-empty") = problem.goal_point;
+    if !path_is_free(grid, &pts) {
+        // Exact end points inside their cells can graze a corner; keep the centres then.
+        pts = cells.iter().map(|c| c.center()).collect();
+        pts.insert(0, problem.start_point);
+        pts.push(problem.goal_point);
+    }
+    Ok(pts)
+}
+
+/// One run of a swarm.
+struct Search<'a> {
+    grid: &'a PlanningGrid,
+    enc: &'a Encoding,
+    p: &'a SwarmParams,
+    variant: Variant,
+    range: Vec<f64>,
+    buf: Vec<Point2>,
+    evaluations: u64,
+    /// The seed's objectives, the scale of the single-objective scalarisation.
+    scale: (f64, f64),
+}
+
+impl<'a> Search<'a> {
+    fn new(
+        grid: &'a PlanningGrid,
+        enc: &'a Encoding,
+        p: &'a SwarmParams,
+        variant: Variant,
+    ) -> Self {
+        let range = enc.lo().iter().zip(enc.hi()).map(|(l, h)| h - l).collect();
+        Self {
+            grid,
+            enc,
+            p,
+            variant,
+            range,
+            buf: Vec::new(),
+            evaluations: 0,
+            scale: (1.0, 1.0),
+        }
+    }
+
+    /// Eq. 18 with constraint violation.
+    fn evaluate(&mut self, x: &[f64]) -> Eval {
+        self.evaluations += 1;
+        self.enc.decode_into(x, &mut self.buf);
+        let res = self.grid.resolution();
+        if path_is_free(self.grid, &self.buf) {
+            Eval {
+                f1: path_length(&self.buf) * res,
+                f2: total_turning(&self.buf),
+                violation: 0.0,
+            }
+        } else {
+            // Constraint domination compares infeasible candidates by violation alone, so their
+            // objectives are never read: skip them (a third of the evaluation time). The violation
+            // is strictly positive, so that a grazing path still counts as infeasible.
+            let violation = (blocked_length(self.grid, &self.buf) * res).max(1e-9);
+            Eval {
+                f1: f64::INFINITY,
+                f2: f64::INFINITY,
+                violation,
+            }
+        }
+    }
+
+    /// The single-objective fitness: equal-weight sum scaled by the seed's values.
+    fn scalar(&self, e: &Eval) -> f64 {
+        let w = self.p.length_weight;
+        w * e.f1 / self.scale.0 + (1.0 - w) * e.f2 / self.scale.1
+    }
+
+    /// Whether `a` is better than `b` under this variant's objective (constraint first).
+    fn better(&self, a: &Eval, b: &Eval) -> bool {
+        if self.variant.multi_objective() {
+            dominates(a, b)
+        } else {
+            match (a.feasible(), b.feasible()) {
+                (true, false) => true,
+                (false, true) => false,
+                (false, false) => a.violation < b.violation,
+                (true, true) => self.scalar(a) < self.scalar(b),
+            }
+        }
+    }
+
+    fn clamp(&self, x: &mut [f64]) {
+        for ((v, &l), &h) in x.iter_mut().zip(self.enc.lo()).zip(self.enc.hi()) {
+            *v = v.clamp(l, h);
+        }
+    }
+
+    /// Runs the swarm from a feasible seed vector. Returns the chosen vector and the Pareto front
+    /// (empty for single-objective variants).
+    fn run(
+        &mut self,
+        seed: &[f64],
+        ctx: &mut PlanContext<'_>,
+        stats: &mut PlanStats,
+    ) -> (Vec<f64>, Vec<(Vec<f64>, Eval)>) {
+        let dim = seed.len();
+        let seed_eval = self.evaluate(seed);
+        self.scale = (seed_eval.f1.max(1e-9), seed_eval.f2.max(1e-3));
+        let mut archive = Archive::new(self.p.archive_size);
+        archive.offer(seed, seed_eval);
+        let mut best = (seed.to_vec(), seed_eval);
+        // Population around the seed; the first member is the seed itself.
+        let mut xs: Vec<Vec<f64>> = Vec::with_capacity(self.p.population);
+        let mut evals = Vec::with_capacity(self.p.population);
+        for k in 0..self.p.population {
+            let mut x = seed.to_vec();
+            if k > 0 {
+                for (v, range) in x.iter_mut().zip(&self.range) {
+                    *v += ctx.rng.random_range(-1.0..=1.0) * self.p.init_spread * range;
+                }
+                self.clamp(&mut x);
+            }
+            let e = if k == 0 { seed_eval } else { self.evaluate(&x) };
+            self.offer(&mut archive, &mut best, &x, e);
+            xs.push(x);
+            evals.push(e);
+        }
+        let mut vs = vec![vec![0.0; dim]; self.p.population];
+        let mut pbest: Vec<(Vec<f64>, Eval)> =
+            xs.iter().cloned().zip(evals.iter().copied()).collect();
+        let cauchy = Cauchy::new(0.0, 1.0).expect("valid Cauchy");
+        let mut best_score = self.progress(&archive, &best);
+        for t in 0..self.p.iterations {
+            if (ctx.interrupt)().is_some() {
+                stats.cut_short = true;
+                break;
+            }
+            stats.iterations += 1;
+            let w = if self.variant == Variant::Mopso {
+                self.p.mopso_inertia
+            } else {
+                self.p.inertia(t)
+            };
+            let mr = if self.variant.improved() {
+                self.p.linear_mr(t)
+            } else {
+                self.p.mr_fixed
+            };
+            // Leaders come from the archive as it stood at the start of the iteration; its
+            // crowding distances are computed once here, not once per cat.
+            let crowding = if self.variant.multi_objective() {
+                pareto::crowding_distances(&archive.objectives())
+            } else {
+                Vec::new()
+            };
+            let leaders = archive.members.clone();
+            for k in 0..self.p.population {
+                let leader = self.leader(&leaders, &crowding, &best, ctx);
+                if self.variant.is_cat() && ctx.rng.random::<f64>() < mr {
+                    // Seeking mode.
+                    let mut candidates = vec![(xs[k].clone(), evals[k])];
+                    for _ in 1..self.p.smp {
+                        let mut c = xs[k].clone();
+                        let changes = ((self.p.cdc * dim as f64).round() as usize).max(1);
+                        for _ in 0..changes {
+                            let d = ctx.rng.random_range(0..dim);
+                            let sigma = self.p.srd * self.range[d];
+                            let jump = match (self.variant.improved(), self.p.mutation) {
+                                (true, Mutation::Cauchy) => cauchy.sample(ctx.rng),
+                                _ => ctx.rng.random_range(-1.0..=1.0),
+                            };
+                            c[d] += sigma * jump;
+                        }
+                        self.clamp(&mut c);
+                        let e = self.evaluate(&c);
+                        self.offer(&mut archive, &mut best, &c, e);
+                        candidates.push((c, e));
+                    }
+                    // The best copy: a non-dominated one (random among ties), or the best scalar.
+                    let pick = self.pick_best(&candidates, ctx);
+                    (xs[k], evals[k]) = candidates.swap_remove(pick);
+                } else {
+                    // Tracing mode (eq. 10-11) or the particle update.
+                    let (c1, c2) = if self.variant.is_cat() {
+                        (0.0, self.p.acceleration)
+                    } else if self.variant == Variant::Mopso {
+                        (
+                            self.p.mopso_acceleration / 2.0,
+                            self.p.mopso_acceleration / 2.0,
+                        )
+                    } else {
+                        (self.p.acceleration, self.p.acceleration)
+                    };
+                    for d in 0..dim {
+                        let r1: f64 = ctx.rng.random();
+                        let r2: f64 = ctx.rng.random();
+                        vs[k][d] = w * vs[k][d]
+                            + c1 * r1 * (pbest[k].0[d] - xs[k][d])
+                            + c2 * r2 * (leader[d] - xs[k][d]);
+                        xs[k][d] += vs[k][d];
+                    }
+                    let (x, v) = (&mut xs[k], &mut vs[k]);
+                    Self::clamp_with(self.enc, x, v);
+                    let e = self.evaluate(&xs[k]);
+                    evals[k] = e;
+                    let x = xs[k].clone();
+                    self.offer(&mut archive, &mut best, &x, e);
+                }
+                if self.better(&evals[k], &pbest[k].1)
+                    || (!self.better(&pbest[k].1, &evals[k]) && ctx.rng.random_bool(0.5))
+                {
+                    pbest[k] = (xs[k].clone(), evals[k]);
+                }
+            }
+            let score = self.progress(&archive, &best);
+            stats.convergence.push(score);
+            if score < best_score - 1e-12 {
+                best_score = score;
+                stats.best_iteration = Some(t as u64 + 1);
+            }
+        }
+        stats.evaluations = self.evaluations;
+        if self.variant.multi_objective() {
+            let chosen = archive
+                .choose(self.p.length_weight)
+                .map(|m| m.0.clone())
+                .unwrap_or_else(|| seed.to_vec());
+            (chosen, archive.members)
+        } else {
+            (best.0, Vec::new())
+        }
+    }
+
+    /// Section II.C, tracing step 3: a dimension that leaves its range is set to the bound and its
+    /// velocity reversed.
+    fn clamp_with(enc: &Encoding, x: &mut [f64], v: &mut [f64]) {
+        let (lo, hi) = (enc.lo(), enc.hi());
+        for d in 0..x.len() {
+            if x[d] < lo[d] || x[d] > hi[d] {
+                x[d] = x[d].clamp(lo[d], hi[d]);
+                v[d] = -v[d];
+            }
+        }
+    }
+
+    /// Keeps the archive (multi-objective) and the best-so-far (single-objective) up to date.
+    fn offer(&self, archive: &mut Archive, best: &mut (Vec<f64>, Eval), x: &[f64], e: Eval) {
+        if self.variant.multi_objective() {
+            archive.offer(x, e);
+        } else if self.better(&e, &best.1) {
+            *best = (x.to_vec(), e);
+        }
+    }
+
+    /// The leader of tracing mode: for Pareto variants an archive member chosen by a binary
+    /// tournament on crowding distance (the less crowded wins, spreading the front); otherwise the
+    /// best so far.
+    fn leader<'m>(
+        &self,
+        members: &'m [(Vec<f64>, Eval)],
+        crowding: &[f64],
+        best: &'m (Vec<f64>, Eval),
+        ctx: &mut PlanContext<'_>,
+    ) -> &'m [f64] {
+        if !self.variant.multi_objective() || members.is_empty() {
+            return &best.0;
+        }
+        let n = members.len();
+        let (a, b) = (ctx.rng.random_range(0..n), ctx.rng.random_range(0..n));
+        &members[if crowding[a] >= crowding[b] { a } else { b }].0
+    }
+
+    fn pick_best(&self, candidates: &[(Vec<f64>, Eval)], ctx: &mut PlanContext<'_>) -> usize {
+        let non_dominated: Vec<usize> = (0..candidates.len())
+            .filter(|&i| {
+                !candidates
+                    .iter()
+                    .any(|c| self.better(&c.1, &candidates[i].1))
+            })
+            .collect();
+        non_dominated[ctx.rng.random_range(0..non_dominated.len())]
+    }
+
+    /// The convergence measure: the best scalarised value (relative to the seed) in the archive or
+    /// of the best so far. It never increases.
+    fn progress(&self, archive: &Archive, best: &(Vec<f64>, Eval)) -> f64 {
+        if self.variant.multi_objective() {
+            archive
+                .members
+                .iter()
+                .map(|(_, e)| self.scalar(e))
+                .fold(f64::INFINITY, f64::min)
+        } else {
+            self.scalar(&best.1)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eq12_schedule() {
+        let p = SwarmParams::default();
+        assert!((p.linear_mr(0) - 0.95).abs() < 1e-12);
+        assert!((p.linear_mr(50) - 0.55).abs() < 1e-12);
+        assert!((p.linear_mr(100) - 0.15).abs() < 1e-12);
+        assert!((p.inertia(0) - 0.9).abs() < 1e-12 && (p.inertia(100) - 0.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cauchy_sampler_has_the_heavy_tail_and_uniform_its_bound() {
+        use rand::SeedableRng;
+        let mut rng = crate::planner::PlannerRng::seed_from_u64(7);
+        let cauchy = Cauchy::<f64>::new(0.0, 1.0).unwrap();
+        let n = 200_000;
+        let tail = (0..n)
+            .filter(|_| cauchy.sample(&mut rng).abs() > 10.0)
+            .count() as f64
+            / n as f64;
+        // P(|X| > 10) = 1 - 2 atan(10) / pi = 0.0635 for the standard Cauchy; a uniform or
+        // Gaussian sampler gives 0.
+        assert!((tail - 0.0635).abs() < 0.003, "{tail}");
+        let uniform_max = (0..n)
+            .map(|_| rng.random_range(-1.0f64..=1.0).abs())
+            .fold(0.0, f64::max);
+        assert!(uniform_max <= 1.0 && uniform_max > 0.99);
+    }
+}

@@ -1,0 +1,122 @@
+//! Every registered planner on a subset of the bench scenarios (debug-time friendly): a
+//! collision-free path from the exact start to the exact goal, the same path for the same seed,
+//! and for the Pareto planners a front that really is non-dominated. The full 20-seed sweep over
+//! all bench maps is `patrol-plan bench` (see docs/results/).
+
+use planner_core::config::PlannerConfig;
+use planner_core::inflation::PlanningGrid;
+use planner_core::planner::{solve, PlanContext, PlannerRng, Query, SolveOptions};
+use planner_core::registry::{build, PLANNER_NAMES};
+use rand::SeedableRng;
+use std::path::PathBuf;
+
+fn bench(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/maps/bench")
+        .join(name)
+}
+
+#[test]
+fn every_planner_is_collision_free_and_deterministic_on_the_bench_maps() {
+    let config = PlannerConfig::default();
+    for scen in [
+        "substation_20_simple.scen.yaml",
+        "substation_20_complex.scen.yaml",
+        "datacenter_100.scen.yaml",
+    ] {
+        let (file, map_path) = planner_io::load_scenario_file(&bench(scen)).unwrap();
+        let map = planner_io::load_map_server(&map_path).unwrap();
+        let grid = PlanningGrid::new(&map, &config.costmap).unwrap();
+        for sc in file.scenarios.iter().take(2) {
+            let q = Query {
+                start: sc.start(),
+                goal: sc.goal(),
+                tolerance: 0.0,
+            };
+            for &name in PLANNER_NAMES {
+                let planner = build(name, &config).unwrap();
+                let run = |seed: u64| {
+                    let mut rng = PlannerRng::seed_from_u64(seed);
+                    solve(
+                        planner.as_ref(),
+                        &grid,
+                        &q,
+                        SolveOptions::default(),
+                        &mut PlanContext::never_interrupted(&mut rng),
+                    )
+                };
+                for seed in 0..2 {
+                    let plan = run(seed)
+                        .unwrap_or_else(|e| panic!("{scen}/{} {name} seed {seed}: {e}", sc.name));
+                    let at = format!("{scen}/{} {name} seed {seed}", sc.name);
+                    assert!(plan.metrics.collision_free, "{at}");
+                    assert_eq!(plan.waypoints[0], q.start, "{at}");
+                    assert_eq!(*plan.waypoints.last().unwrap(), q.goal, "{at}");
+                    assert_eq!(
+                        run(seed).unwrap().waypoints,
+                        plan.waypoints,
+                        "{at}: same seed, different path"
+                    );
+                    for a in &plan.pareto {
+                        for b in &plan.pareto {
+                            let dominates = a.f1_length_m <= b.f1_length_m
+                                && a.f2_turning_rad <= b.f2_turning_rad
+                                && (a.f1_length_m < b.f1_length_m
+                                    || a.f2_turning_rad < b.f2_turning_rad);
+                            assert!(!dominates, "{at}: the front holds a dominated member");
+                        }
+                    }
+                    if name.starts_with("mo") {
+                        assert!(
+                            !plan.pareto.is_empty(),
+                            "{at}: a Pareto planner without a front"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Anytime: a swarm interrupted part-way still returns a feasible path (its best so far) and says
+/// it was cut short. (Interrupted before its seed exists, it fails with the interrupt's reason.)
+#[test]
+fn an_interrupted_swarm_returns_its_best_so_far() {
+    let config = PlannerConfig::default();
+    let map = planner_io::load_map_server(&bench("datacenter_100.yaml")).unwrap();
+    let grid = PlanningGrid::new(&map, &config.costmap).unwrap();
+    let q = Query {
+        start: planner_core::geometry::Point2::new(0.1, 0.1),
+        goal: planner_core::geometry::Point2::new(19.9, 19.9),
+        tolerance: 0.0,
+    };
+    let planner = build("mocmcso", &config).unwrap();
+    let mut rng = PlannerRng::seed_from_u64(0);
+    // The deadline passes at the fifth poll: after the seed, a few iterations in.
+    let polls = std::cell::Cell::new(0);
+    let interrupt = || {
+        polls.set(polls.get() + 1);
+        (polls.get() >= 5).then_some(planner_core::planner::Interrupt::Deadline)
+    };
+    let ctx = &mut PlanContext {
+        rng: &mut rng,
+        interrupt: &interrupt,
+    };
+    let plan = solve(planner.as_ref(), &grid, &q, SolveOptions::default(), ctx).unwrap();
+    assert!(plan.stats.cut_short);
+    assert!(plan.metrics.collision_free);
+    assert!(
+        plan.stats.iterations > 0 && plan.stats.iterations < 100,
+        "{}",
+        plan.stats.iterations
+    );
+    let mut rng = PlannerRng::seed_from_u64(0);
+    let ctx = &mut PlanContext {
+        rng: &mut rng,
+        interrupt: &|| Some(planner_core::planner::Interrupt::Deadline),
+    };
+    assert_eq!(
+        solve(planner.as_ref(), &grid, &q, SolveOptions::default(), ctx).unwrap_err(),
+        planner_core::planner::PlanError::TimedOut
+    );
+}
