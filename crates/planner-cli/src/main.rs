@@ -37,21 +37,31 @@ struct Common {
     config: Option<PathBuf>,
 }
 
+/// One planning request on one map: what `plan` and `render` share.
+#[derive(clap::Args, Clone)]
+struct Request {
+    /// Map: map_server YAML, or a Moving AI `.map` (read with 1 m cells).
+    #[arg(long)]
+    map: PathBuf,
+    /// Start `X,Y` in map metres.
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    start: [f64; 2],
+    /// Goal `X,Y` in map metres.
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    goal: [f64; 2],
+    #[command(flatten)]
+    common: Common,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Plan one path and print it as one JSON object (planner, seed, length_m, turning_rad, turns,
     /// min_clearance_m, collision_free, time_ms, reference_length_m, waypoints).
     Plan {
-        /// Map: map_server YAML, or a Moving AI `.map` (read with 1 m cells).
-        #[arg(long)]
-        map: PathBuf,
-        /// Start `X,Y` in map metres.
-        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
-        start: [f64; 2],
-        /// Goal `X,Y` in map metres.
-        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
-        goal: [f64; 2],
-        /// Planner name (default: the config's `planner`, else astar). `patrol-plan planners` lists them.
+        #[command(flatten)]
+        request: Request,
+        /// Planner name (default: the config's `planner`, else mocmcso). `patrol-plan planners`
+        /// lists them.
         #[arg(long)]
         planner: Option<String>,
         /// RNG seed (default: the config's `seed`, else 0). The node logs the seed of every plan so
@@ -61,8 +71,6 @@ enum Command {
         /// Also draw the map, the inflated area, the path, the any-angle reference, start and goal.
         #[arg(long)]
         svg: Option<PathBuf>,
-        #[command(flatten)]
-        common: Common,
     },
     /// Run A* on every scenario of a Moving AI `.scen` and compare each length with the recorded
     /// optimum (to the file's printed precision). Ends with `N passed, M failed`; exits 1 on any
@@ -100,12 +108,8 @@ enum Command {
     },
     /// Draw a map with the paths of several planners as SVG, so a person can check them by eye.
     Render {
-        #[arg(long)]
-        map: PathBuf,
-        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
-        start: [f64; 2],
-        #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
-        goal: [f64; 2],
+        #[command(flatten)]
+        request: Request,
         /// Comma-separated planner names, each drawn in its own colour.
         #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
         planners: Vec<String>,
@@ -114,8 +118,6 @@ enum Command {
         /// Output SVG file.
         #[arg(long)]
         out: PathBuf,
-        #[command(flatten)]
-        common: Common,
     },
     /// List the planner names.
     Planners,
@@ -132,21 +134,18 @@ fn main() {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Plan {
-            map,
-            start,
-            goal,
+            request: r,
             planner,
             seed,
             svg,
-            common,
         } => run::plan_command(
-            &map,
-            start,
-            goal,
+            &r.map,
+            r.start,
+            r.goal,
             planner,
             seed,
             svg.as_deref(),
-            common.config.as_deref(),
+            r.common.config.as_deref(),
         ),
         Command::Movingai { map, scen } => {
             let failed = movingai::run(&map, &scen)?;
@@ -170,21 +169,18 @@ fn run(cli: Cli) -> Result<()> {
             config: common.config,
         }),
         Command::Render {
-            map,
-            start,
-            goal,
+            request: r,
             planners,
             seed,
             out,
-            common,
         } => run::render_command(
-            &map,
-            start,
-            goal,
+            &r.map,
+            r.start,
+            r.goal,
             &planners,
             seed,
             &out,
-            common.config.as_deref(),
+            r.common.config.as_deref(),
         ),
         Command::Planners => {
             for name in planner_core::registry::PLANNER_NAMES {
