@@ -172,8 +172,13 @@ impl PlanningGrid {
     /// Whether the robot's centre may be in this cell (false outside the map).
     #[inline]
     pub fn is_free(&self, c: Cell) -> bool {
-        self.info.contains(c)
-            && self.padded_free[(c.y as usize + 1) * (self.width() + 2) + c.x as usize + 1]
+        // Shifted by the border, a cell inside the map has 1 <= x + 1 <= width; one unsigned
+        // comparison per axis rejects both sides (a negative wraps to a huge value).
+        let (px, py) = ((c.x + 1) as u32 as usize, (c.y + 1) as u32 as usize);
+        let stride = self.width() + 2;
+        px.wrapping_sub(1) < self.width()
+            && py.wrapping_sub(1) < self.height()
+            && self.padded_free[py * stride + px]
     }
 
     /// The free mask with a one-cell blocked border (row stride `width + 2`; cell (x, y) is at

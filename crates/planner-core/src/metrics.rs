@@ -42,16 +42,21 @@ fn headings(points: &[Point2]) -> impl Iterator<Item = f64> + '_ {
 /// not monotone along the start-goal axis are measured correctly too. Zero-length segments are
 /// skipped (they have no heading).
 pub fn total_turning(points: &[Point2]) -> f64 {
-    let h: Vec<f64> = headings(points).collect();
-    h.windows(2).map(|w| wrap_angle(w[1] - w[0]).abs()).sum()
+    heading_changes(points).map(f64::abs).sum()
 }
 
 /// Number of heading changes larger than [`TURN_EPS`].
 pub fn turn_count(points: &[Point2]) -> usize {
-    let h: Vec<f64> = headings(points).collect();
-    h.windows(2)
-        .filter(|w| wrap_angle(w[1] - w[0]).abs() > TURN_EPS)
+    heading_changes(points)
+        .filter(|d| d.abs() > TURN_EPS)
         .count()
+}
+
+/// The signed heading change at each vertex between non-degenerate segments, wrapped to
+/// (-pi, pi]. No allocation: the swarms call this for every feasible candidate.
+fn heading_changes(points: &[Point2]) -> impl Iterator<Item = f64> + '_ {
+    let mut previous: Option<f64> = None;
+    headings(points).filter_map(move |h| previous.replace(h).map(|p| wrap_angle(h - p)))
 }
 
 /// Removes waypoints that lie on the straight line through their neighbours (and repeated

@@ -87,7 +87,8 @@ pub fn path_is_free(grid: &PlanningGrid, points: &[Point2]) -> bool {
 }
 
 /// The length (grid units) of the parts of a polyline that lie in blocked cells, approximated by
-/// the blocked share of each segment's supercover. Orders infeasible swarm candidates: the less
+/// the blocked share of each segment's supercover. Exactly 0 iff every segment is free (the same
+/// test as [`path_is_free`] for two or more points). Orders infeasible swarm candidates: the less
 /// of a path is in obstacles, the closer it is to feasible.
 pub fn blocked_length(grid: &PlanningGrid, points: &[Point2]) -> f64 {
     points
@@ -99,7 +100,11 @@ pub fn blocked_length(grid: &PlanningGrid, points: &[Point2]) -> f64 {
                 blocked += u32::from(!grid.is_free(c));
                 true
             });
-            (w[1] - w[0]).norm() * blocked as f64 / total as f64
+            if blocked == 0 {
+                0.0
+            } else {
+                (w[1] - w[0]).norm() * blocked as f64 / total as f64
+            }
         })
         .sum()
 }

@@ -394,7 +394,9 @@ impl<'a> Search<'a> {
         self.evaluations += 1;
         self.enc.decode_into(x, &mut self.buf);
         let res = self.grid.resolution();
-        if path_is_free(self.grid, &self.buf) {
+        // One traversal gives both feasibility (nothing blocked) and the violation.
+        let blocked = blocked_length(self.grid, &self.buf);
+        if blocked == 0.0 {
             Eval {
                 f1: path_length(&self.buf) * res,
                 f2: total_turning(&self.buf),
@@ -402,13 +404,12 @@ impl<'a> Search<'a> {
             }
         } else {
             // Constraint domination compares infeasible candidates by violation alone, so their
-            // objectives are never read: skip them (a third of the evaluation time). The violation
-            // is strictly positive, so that a grazing path still counts as infeasible.
-            let violation = (blocked_length(self.grid, &self.buf) * res).max(1e-9);
+            // objectives are never read: skip them. The violation is strictly positive, so that a
+            // grazing path still counts as infeasible.
             Eval {
                 f1: f64::INFINITY,
                 f2: f64::INFINITY,
-                violation,
+                violation: (blocked * res).max(1e-9),
             }
         }
     }
@@ -474,6 +475,7 @@ impl<'a> Search<'a> {
             xs.iter().cloned().zip(evals.iter().copied()).collect();
         let cauchy = Cauchy::new(0.0, 1.0).expect("valid Cauchy");
         let mut best_score = self.progress(&archive, &best);
+        let mut leaders: Vec<f64> = Vec::with_capacity(self.p.archive_size * dim);
         for t in 0..self.p.iterations {
             if (ctx.interrupt)().is_some() {
                 stats.cut_short = true;
@@ -497,7 +499,11 @@ impl<'a> Search<'a> {
             } else {
                 Vec::new()
             };
-            let leaders = archive.members.clone();
+            // A flat copy, reusing one buffer: no allocation per member per iteration.
+            leaders.clear();
+            for (x, _) in &archive.members {
+                leaders.extend_from_slice(x);
+            }
             for k in 0..self.p.population {
                 let leader = self.leader(&leaders, &crowding, &best, ctx);
                 if self.variant.is_cat() && ctx.rng.random::<f64>() < mr {
@@ -596,22 +602,24 @@ impl<'a> Search<'a> {
         }
     }
 
-    /// The leader of tracing mode: for Pareto variants an archive member chosen by a binary
-    /// tournament on crowding distance (the less crowded wins, spreading the front); otherwise the
-    /// best so far.
+    /// The leader of tracing mode: for Pareto variants an archive member (from `members`, the
+    /// archive's vectors laid end to end) chosen by a binary tournament on crowding distance (the
+    /// less crowded wins, spreading the front); otherwise the best so far.
     fn leader<'m>(
         &self,
-        members: &'m [(Vec<f64>, Eval)],
+        members: &'m [f64],
         crowding: &[f64],
         best: &'m (Vec<f64>, Eval),
         ctx: &mut PlanContext<'_>,
     ) -> &'m [f64] {
+        let dim = best.0.len();
         if !self.variant.multi_objective() || members.is_empty() {
             return &best.0;
         }
-        let n = members.len();
+        let n = members.len() / dim;
         let (a, b) = (ctx.rng.random_range(0..n), ctx.rng.random_range(0..n));
-        &members[if crowding[a] >= crowding[b] { a } else { b }].0
+        let k = if crowding[a] >= crowding[b] { a } else { b };
+        &members[k * dim..(k + 1) * dim]
     }
 
     fn pick_best(&self, candidates: &[(Vec<f64>, Eval)], ctx: &mut PlanContext<'_>) -> usize {
