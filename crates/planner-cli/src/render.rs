@@ -16,10 +16,22 @@ const PALETTE: &[&str] = &[
     "#bcbd22",
 ];
 
-/// Something drawn over the map, in world metres.
+/// Something drawn over the map, in world metres, or beside it.
 pub enum Layer {
-    Path { label: String, points: Vec<Point2> },
-    Endpoints { start: Point2, goal: Point2 },
+    Path {
+        label: String,
+        points: Vec<Point2>,
+    },
+    Endpoints {
+        start: Point2,
+        goal: Point2,
+    },
+    /// A Pareto front (f1 length in m, f2 turning in rad) and the chosen member, drawn as a
+    /// scatter plot beside the map.
+    Pareto {
+        front: Vec<(f64, f64)>,
+        chosen: (f64, f64),
+    },
 }
 
 impl Layer {
@@ -32,6 +44,69 @@ impl Layer {
     pub fn endpoints(start: Point2, goal: Point2) -> Self {
         Layer::Endpoints { start, goal }
     }
+}
+
+/// Side of the square Pareto panel, in pixels.
+const PANEL: f64 = 450.0;
+
+/// The scatter plot of a front, as a self-contained `<svg>` at `x` pixels.
+fn pareto_panel(front: &[(f64, f64)], chosen: (f64, f64), x: f64) -> String {
+    let (margin, size) = (60.0, PANEL - 80.0);
+    let span = |v: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+            (l.min(x), h.max(x))
+        });
+        let pad = ((hi - lo) * 0.05).max(1e-3);
+        (lo - pad, hi + pad)
+    };
+    let (x0, x1) = span(&mut front.iter().map(|p| p.0));
+    let (y0, y1) = span(&mut front.iter().map(|p| p.1));
+    let px = |v: f64| margin + (v - x0) / (x1 - x0) * size;
+    let py = |v: f64| 20.0 + size - (v - y0) / (y1 - y0) * size;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg x="{x:.0}" y="0" width="{PANEL}" height="{PANEL}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(
+        s,
+        r##"<rect x="{margin}" y="20" width="{size}" height="{size}" fill="none" stroke="#444"/>"##
+    );
+    for &(f1, f2) in front {
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{:.2}" cy="{:.2}" r="3" fill="#1f77b4"><title>{f1:.3} m, {f2:.3} rad</title></circle>"##,
+            px(f1),
+            py(f2)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r##"<circle cx="{:.2}" cy="{:.2}" r="6" fill="none" stroke="#d62728" stroke-width="2"><title>chosen (eq. 19-21): {:.3} m, {:.3} rad</title></circle>"##,
+        px(chosen.0),
+        py(chosen.1),
+        chosen.0,
+        chosen.1
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.0}" y="{:.0}" text-anchor="middle">f1 path length (m): {x0:.2} .. {x1:.2}</text>"#,
+        margin + size / 2.0,
+        size + 45.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="14" y="{:.0}" transform="rotate(-90 14 {:.0})" text-anchor="middle">f2 total turning (rad): {y0:.2} .. {y1:.2}</text>"#,
+        20.0 + size / 2.0,
+        20.0 + size / 2.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{margin}" y="14">Pareto front: {} solutions, chosen one circled in red</text>"#,
+        front.len()
+    );
+    s.push_str("</svg>\n");
+    s
 }
 
 pub struct Drawing<'a> {
@@ -76,7 +151,8 @@ impl<'a> Drawing<'a> {
         base64::engine::general_purpose::STANDARD.encode(png)
     }
 
-    pub fn to_svg(&self) -> String {
+    /// The map with its paths, as a self-contained `<svg>`, and its width in pixels.
+    fn map_svg(&self) -> (String, f64) {
         let info = self.grid.info();
         let (w, h) = (info.width as f64, info.height as f64);
         let scale = 900.0 / w.max(h);
@@ -122,6 +198,7 @@ impl<'a> Drawing<'a> {
                         format!("{label}: {len:.2} m, {} waypoints", points.len()),
                     ));
                 }
+                Layer::Pareto { .. } => {}
                 Layer::Endpoints { start, goal } => {
                     for (p, c, name) in [(start, "#00a000", "start"), (goal, "#d00000", "goal")] {
                         let (x, y) = xy(*p);
@@ -152,6 +229,30 @@ impl<'a> Drawing<'a> {
             );
         }
         s.push_str("</svg>\n");
-        s
+        (s, w * scale)
+    }
+
+    /// The whole picture: the map, and the Pareto panel beside it when there is a front.
+    pub fn to_svg(&self) -> String {
+        let (map, map_width) = self.map_svg();
+        let Some((front, chosen)) = self.layers.iter().find_map(|l| match l {
+            Layer::Pareto { front, chosen } => Some((front, *chosen)),
+            _ => None,
+        }) else {
+            return map;
+        };
+        let height = map
+            .split("height=\"")
+            .nth(1)
+            .and_then(|r| r.split('"').next())
+            .and_then(|h| h.parse::<f64>().ok())
+            .unwrap_or(PANEL)
+            .max(PANEL);
+        format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{:.0}\" height=\"{height:.0}\">\n{}{}</svg>\n",
+            map_width + PANEL,
+            map.replacen("<svg ", "<svg x=\"0\" y=\"0\" ", 1),
+            pareto_panel(front, chosen, map_width)
+        )
     }
 }

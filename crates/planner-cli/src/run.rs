@@ -142,6 +142,16 @@ pub fn plan_command(
         }
         drawing.add(Layer::path(plan.planner, &plan.waypoints));
         drawing.add(Layer::endpoints(query.start, plan.goal));
+        if !plan.pareto.is_empty() {
+            drawing.add(Layer::Pareto {
+                front: plan
+                    .pareto
+                    .iter()
+                    .map(|m| (m.f1_length_m, m.f2_turning_rad))
+                    .collect(),
+                chosen: (plan.metrics.length_m, plan.metrics.turning_rad),
+            });
+        }
         std::fs::write(svg, drawing.to_svg())
             .with_context(|| format!("writing {}", svg.display()))?;
     }

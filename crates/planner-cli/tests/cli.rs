@@ -125,6 +125,36 @@ fn plan_prints_the_documented_json() {
     assert!(picture.starts_with("<svg") && picture.contains("<polyline"));
 }
 
+/// A multi-objective planner's picture carries its Pareto front beside the map.
+#[test]
+fn plan_svg_draws_the_pareto_front_of_mocmcso() {
+    let map = shared("bench/substation_20_complex.yaml");
+    let svg = std::env::temp_dir().join(format!("patrol-plan-mo-{}.svg", std::process::id()));
+    let (ok, stdout, stderr) = patrol_plan(&[
+        "plan",
+        "--map",
+        map.to_str().unwrap(),
+        "--start",
+        "19.5,0.5",
+        "--goal",
+        "0.5,19.5",
+        "--planner",
+        "mocmcso",
+        "--seed",
+        "3",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["planner"], "mocmcso");
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        picture.contains("Pareto front:") && picture.contains("chosen (eq. 19-21)"),
+        "no Pareto panel"
+    );
+}
+
 /// Bad requests fail with a reason, not a panic.
 #[test]
 fn plan_rejects_bad_requests_with_a_reason() {
