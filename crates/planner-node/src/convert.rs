@@ -1,0 +1,418 @@
+//! Conversions between ROS messages and planner-core, as free functions (Nav2's planner plugins
+//! keep the same split): frames and quaternions checked here, paths densified, failures mapped to
+//! the Nav2 result code names that `/diagnostics` reports.
+
+use patrol_msgs::builtin_interfaces::Time;
+use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Vector3};
+use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
+use patrol_msgs::std_msgs::{ColorRGBA, Header};
+use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
+use planner_core::geometry::{Point2, Pose2};
+use planner_core::grid::{GridMap, MapError, MapInfo};
+use planner_core::planner::{Plan, PlanError};
+
+/// Why a request could not be planned, with the code `/diagnostics` reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Failure {
+    /// Nav2's result code names (NONE, START_OUTSIDE_MAP, GOAL_OUTSIDE_MAP, START_OCCUPIED,
+    /// GOAL_OCCUPIED, TIMEOUT, NO_VALID_PATH, INVALID_PLANNER, TF_ERROR) and this node's own:
+    /// INVALID_INPUT (NaN pose, zero quaternion, malformed map), NO_MAP, NO_START_POSE, CANCELLED.
+    pub code: &'static str,
+    pub message: String,
+}
+
+impl Failure {
+    pub fn new(code: &'static str, message: impl Into<String>) -> Self {
+        Self {
+            code,
+            message: message.into(),
+        }
+    }
+}
+
+impl From<PlanError> for Failure {
+    fn from(e: PlanError) -> Self {
+        let code = match &e {
+            PlanError::StartOutsideMap(_) => "START_OUTSIDE_MAP",
+            PlanError::GoalOutsideMap(_) => "GOAL_OUTSIDE_MAP",
+            PlanError::StartOccupied(_) => "START_OCCUPIED",
+            PlanError::GoalOccupied(_) => "GOAL_OCCUPIED",
+            PlanError::TimedOut => "TIMEOUT",
+            PlanError::Cancelled => "CANCELLED",
+            PlanError::InvalidInput(_) => "INVALID_INPUT",
+            _ => "NO_VALID_PATH",
+        };
+        Failure::new(code, e.to_string())
+    }
+}
+
+/// The heading of a quaternion (rotation about z), normalising it first. A quaternion that is
+/// not finite or has (almost) zero length is refused.
+pub fn yaw_from_quaternion(q: &Quaternion) -> Result<f64, Failure> {
+    let n = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
+    if !n.is_finite() || n < 1e-9 {
+        return Err(Failure::new(
+            "INVALID_INPUT",
+            format!(
+                "quaternion ({}, {}, {}, {}) cannot be normalised",
+                q.x, q.y, q.z, q.w
+            ),
+        ));
+    }
+    let (x, y, z, w) = (q.x / n, q.y / n, q.z / n, q.w / n);
+    Ok((2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)))
+}
+
+pub fn quaternion_from_yaw(yaw: f64) -> Quaternion {
+    Quaternion {
+        x: 0.0,
+        y: 0.0,
+        z: (yaw / 2.0).sin(),
+        w: (yaw / 2.0).cos(),
+    }
+}
+
+/// Position and heading of a stamped pose in the global frame: the frame must be the global one
+/// or empty (Nav2 treats empty as the global frame), the numbers finite.
+pub fn pose_in_frame(msg: &PoseStamped, global_frame: &str) -> Result<Pose2, Failure> {
+    let frame = msg.header.frame_id.trim_start_matches('/');
+    if !frame.is_empty() && frame != global_frame {
+        return Err(Failure::new(
+            "TF_ERROR",
+            format!("pose is in frame `{frame}`; this node plans in `{global_frame}` and has no transform from `{frame}`"),
+        ));
+    }
+    pose2(&msg.pose)
+}
+
+/// A pose's position and heading, refusing NaN and infinities.
+pub fn pose2(p: &Pose) -> Result<Pose2, Failure> {
+    let (x, y) = (p.position.x, p.position.y);
+    if !(x.is_finite() && y.is_finite() && p.position.z.is_finite()) {
+        return Err(Failure::new(
+            "INVALID_INPUT",
+            format!("position ({x}, {y}, {}) is not finite", p.position.z),
+        ));
+    }
+    Ok(Pose2::new(x, y, yaw_from_quaternion(&p.orientation)?))
+}
+
+/// A received map, validated like every other map.
+pub fn grid_from_msg(msg: &OccupancyGrid) -> Result<GridMap, MapError> {
+    let origin = pose2(&msg.info.origin)
+        .map_err(|f| MapError::Format(format!("map origin: {}", f.message)))?;
+    let info = MapInfo {
+        width: msg.info.width,
+        height: msg.info.height,
+        resolution: msg.info.resolution as f64,
+        origin,
+    };
+    GridMap::new(info, msg.data.clone())
+}
+
+/// The map as a message (what the node publishes when it loads `map_yaml` itself).
+pub fn msg_from_grid(map: &GridMap, frame: &str, stamp: Time) -> OccupancyGrid {
+    let info = map.info();
+    OccupancyGrid {
+        header: Header {
+            stamp,
+            frame_id: frame.into(),
+        },
+        info: MapMetaData {
+            map_load_time: stamp,
+            resolution: info.resolution as f32,
+            width: info.width,
+            height: info.height,
+            origin: Pose {
+                position: Point {
+                    x: info.origin.x,
+                    y: info.origin.y,
+                    z: 0.0,
+                },
+                orientation: quaternion_from_yaw(info.origin.yaw),
+            },
+        },
+        data: map.data().to_vec(),
+    }
+}
+
+/// A plan as nav_msgs/Path: densified to one pose per `spacing` metres (Nav2's planners publish
+/// dense paths and its controllers expect them), each pose facing along the path, the last one
+/// with the goal's heading.
+pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Header) -> Path {
+    let mut points: Vec<Point2> = Vec::new();
+    for w in waypoints.windows(2) {
+        let d = w[1] - w[0];
+        let steps = ((d.norm() / spacing).ceil() as usize).max(1);
+        points.extend((0..steps).map(|k| w[0] + d * (k as f64 / steps as f64)));
+    }
+    points.extend(waypoints.last());
+    let poses = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let yaw = match points.get(i + 1) {
+                Some(n) if i + 1 < points.len() => (n.y - p.y).atan2(n.x - p.x),
+                _ => goal_yaw,
+            };
+            PoseStamped {
+                header: header.clone(),
+                pose: Pose {
+                    position: Point {
+                        x: p.x,
+                        y: p.y,
+                        z: 0.0,
+                    },
+                    orientation: quaternion_from_yaw(yaw),
+                },
+            }
+        })
+        .collect();
+    Path { header, poses }
+}
+
+/// One `/diagnostics` status per request: the result code, the reason and the figures.
+pub fn diagnostics(
+    header: Header,
+    planner: &str,
+    seed: u64,
+    outcome: Result<&Plan, &Failure>,
+    elapsed_ms: f64,
+) -> DiagnosticArray {
+    let kv = |k: &str, v: String| KeyValue {
+        key: k.into(),
+        value: v,
+    };
+    let mut values = vec![
+        kv("planner", planner.into()),
+        kv("seed", seed.to_string()),
+        kv("planning_time_ms", format!("{elapsed_ms:.3}")),
+    ];
+    let (level, code, message) = match outcome {
+        Ok(plan) => {
+            values.extend([
+                kv("iterations", plan.stats.iterations.to_string()),
+                kv("length_m", format!("{:.4}", plan.metrics.length_m)),
+                kv("turning_rad", format!("{:.4}", plan.metrics.turning_rad)),
+                kv("cut_short", plan.stats.cut_short.to_string()),
+            ]);
+            (
+                0u8,
+                "NONE",
+                format!("planned {:.2} m", plan.metrics.length_m),
+            )
+        }
+        Err(f) => (2u8, f.code, f.message.clone()),
+    };
+    values.insert(1, kv("result", code.into()));
+    DiagnosticArray {
+        header,
+        status: vec![DiagnosticStatus {
+            level,
+            name: "patrol_planner: plan".into(),
+            message,
+            hardware_id: String::new(),
+            values,
+        }],
+    }
+}
+
+/// Every Pareto-front path as a line strip, the chosen one thicker, for RViz.
+pub fn pareto_markers(plan: &Plan, header: Header) -> MarkerArray {
+    let mut markers = vec![Marker {
+        header: header.clone(),
+        ns: "pareto".into(),
+        action: Marker::DELETEALL,
+        ..Marker::default()
+    }];
+    for (i, m) in plan.pareto.iter().enumerate() {
+        let chosen = (m.f1_length_m - plan.metrics.length_m).abs() < 1e-9
+            && (m.f2_turning_rad - plan.metrics.turning_rad).abs() < 1e-9;
+        markers.push(Marker {
+            header: header.clone(),
+            ns: "pareto".into(),
+            id: i as i32,
+            type_: Marker::LINE_STRIP,
+            action: Marker::ADD,
+            pose: Pose::default(),
+            scale: Vector3 {
+                x: if chosen { 0.06 } else { 0.02 },
+                y: 0.0,
+                z: 0.0,
+            },
+            color: if chosen {
+                ColorRGBA {
+                    r: 0.9,
+                    g: 0.1,
+                    b: 0.1,
+                    a: 1.0,
+                }
+            } else {
+                ColorRGBA {
+                    r: 0.2,
+                    g: 0.4,
+                    b: 0.9,
+                    a: 0.6,
+                }
+            },
+            points: m
+                .waypoints
+                .iter()
+                .map(|p| Point {
+                    x: p.x,
+                    y: p.y,
+                    z: 0.0,
+                })
+                .collect(),
+            text: format!("{:.2} m, {:.2} rad", m.f1_length_m, m.f2_turning_rad),
+            ..Marker::default()
+        });
+    }
+    MarkerArray { markers }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stamped(frame: &str, x: f64, y: f64, q: Quaternion) -> PoseStamped {
+        PoseStamped {
+            header: Header {
+                stamp: Time::default(),
+                frame_id: frame.into(),
+            },
+            pose: Pose {
+                position: Point { x, y, z: 0.0 },
+                orientation: q,
+            },
+        }
+    }
+
+    #[test]
+    fn quaternions_are_normalised_and_zero_is_refused() {
+        let q = quaternion_from_yaw(1.0);
+        assert!((yaw_from_quaternion(&q).unwrap() - 1.0).abs() < 1e-12);
+        let scaled = Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: q.z * 3.0,
+            w: q.w * 3.0,
+        };
+        assert!((yaw_from_quaternion(&scaled).unwrap() - 1.0).abs() < 1e-12);
+        let zero = Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 0.0,
+        };
+        assert_eq!(
+            yaw_from_quaternion(&zero).unwrap_err().code,
+            "INVALID_INPUT"
+        );
+        let nan = Quaternion {
+            x: f64::NAN,
+            ..Quaternion::default()
+        };
+        assert_eq!(yaw_from_quaternion(&nan).unwrap_err().code, "INVALID_INPUT");
+    }
+
+    #[test]
+    fn frames_and_non_finite_poses_are_refused() {
+        let q = Quaternion::default();
+        assert!(pose_in_frame(&stamped("map", 1.0, 2.0, q), "map").is_ok());
+        assert!(pose_in_frame(&stamped("", 1.0, 2.0, q), "map").is_ok());
+        assert!(pose_in_frame(&stamped("/map", 1.0, 2.0, q), "map").is_ok());
+        assert_eq!(
+            pose_in_frame(&stamped("odom", 1.0, 2.0, q), "map")
+                .unwrap_err()
+                .code,
+            "TF_ERROR"
+        );
+        assert_eq!(
+            pose_in_frame(&stamped("map", f64::NAN, 2.0, q), "map")
+                .unwrap_err()
+                .code,
+            "INVALID_INPUT"
+        );
+        assert_eq!(
+            pose_in_frame(&stamped("map", 1.0, f64::INFINITY, q), "map")
+                .unwrap_err()
+                .code,
+            "INVALID_INPUT"
+        );
+    }
+
+    #[test]
+    fn maps_round_trip_and_bad_ones_are_refused() {
+        let info = MapInfo {
+            width: 3,
+            height: 2,
+            resolution: 0.05,
+            origin: Pose2::new(-1.0, 2.0, 0.5),
+        };
+        let map = GridMap::new(info, vec![0, -1, 100, 0, 0, 50]).unwrap();
+        let msg = msg_from_grid(&map, "map", Time::default());
+        let back = grid_from_msg(&msg).unwrap();
+        assert_eq!(back.data(), map.data());
+        assert!((back.info().origin.yaw - 0.5).abs() < 1e-9);
+        let mut bad = msg.clone();
+        bad.data.pop();
+        assert!(matches!(
+            grid_from_msg(&bad),
+            Err(MapError::DataLength { .. })
+        ));
+        let mut bad = msg.clone();
+        bad.info.resolution = f32::NAN;
+        assert!(matches!(
+            grid_from_msg(&bad),
+            Err(MapError::BadResolution(_))
+        ));
+        let mut bad = msg;
+        bad.info.resolution = 0.0;
+        assert!(matches!(
+            grid_from_msg(&bad),
+            Err(MapError::BadResolution(_))
+        ));
+    }
+
+    #[test]
+    fn paths_are_dense_and_end_with_the_goal_heading() {
+        let wp = [
+            Point2::new(0.0, 0.0),
+            Point2::new(1.0, 0.0),
+            Point2::new(1.0, 0.5),
+        ];
+        let path = path_msg(&wp, 0.3, 0.1, Header::default());
+        assert_eq!(path.poses.len(), 10 + 5 + 1);
+        let first = &path.poses[0].pose;
+        assert!(yaw_from_quaternion(&first.orientation).unwrap().abs() < 1e-12);
+        let last = &path.poses.last().unwrap().pose;
+        assert_eq!((last.position.x, last.position.y), (1.0, 0.5));
+        assert!((yaw_from_quaternion(&last.orientation).unwrap() - 0.3).abs() < 1e-12);
+        for w in path.poses.windows(2) {
+            let d = ((w[1].pose.position.x - w[0].pose.position.x).powi(2)
+                + (w[1].pose.position.y - w[0].pose.position.y).powi(2))
+            .sqrt();
+            assert!(d <= 0.1 + 1e-12);
+        }
+    }
+
+    #[test]
+    fn plan_errors_map_to_nav2_codes() {
+        let p = Point2::new(1.0, 2.0);
+        assert_eq!(
+            Failure::from(PlanError::GoalOccupied(p)).code,
+            "GOAL_OCCUPIED"
+        );
+        assert_eq!(
+            Failure::from(PlanError::StartOutsideMap(p)).code,
+            "START_OUTSIDE_MAP"
+        );
+        assert_eq!(Failure::from(PlanError::TimedOut).code, "TIMEOUT");
+        assert_eq!(
+            Failure::from(PlanError::NoValidPath("x".into())).code,
+            "NO_VALID_PATH"
+        );
+    }
+}

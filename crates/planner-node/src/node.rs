@@ -1,0 +1,651 @@
+//! The ROS 2 plumbing of `patrol_planner`: topics, the GetPlan service and parameters around
+//! planner-core, on ros2-client and tokio. All conversions live in [`crate::convert`]; planning
+//! runs on tokio's blocking pool so the node keeps receiving while it plans.
+//!
+//! | direction | name | type | QoS |
+//! |---|---|---|---|
+//! | in | `/map` | nav_msgs/OccupancyGrid | reliable, transient local, depth 1 (like map_server) |
+//! | in | `/goal_pose` | geometry_msgs/PoseStamped | reliable, volatile, depth 10 (RViz's 2D Goal Pose) |
+//! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
+//! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
+//! | out | `/map` | nav_msgs/OccupancyGrid | reliable, transient local (only with `map_yaml`) |
+//! | out | `/plan` | nav_msgs/Path | reliable, transient local, depth 1 |
+//! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
+//! | out | `/patrol_planner/pareto` | visualization_msgs/MarkerArray | reliable, volatile, depth 1 |
+//! | service | `/patrol_planner/make_plan` | nav_msgs/srv/GetPlan | reliable |
+//!
+//! A new goal cancels a plan still running for an older one (its interrupt callback sees the
+//! goal counter move); goals that arrive faster than plans finish are coalesced to the newest.
+//! Failed goals publish nothing on `/plan` (Nav2's planner server does the same) but always a
+//! `/diagnostics` status with the reason.
+
+use crate::convert::{self, Failure};
+use crate::params::NodeParams;
+use anyhow::{Context as _, Result};
+use log::{error, info, warn};
+use patrol_msgs::builtin_interfaces::Time;
+use patrol_msgs::diagnostic_msgs::DiagnosticArray;
+use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
+use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
+use patrol_msgs::std_msgs::Header;
+use patrol_msgs::visualization_msgs::MarkerArray;
+use planner_core::geometry::{Point2, Pose2};
+use planner_core::grid::GridMap;
+use planner_core::inflation::PlanningGrid;
+use planner_core::planner::{Interrupt, Plan, PlanContext, PlannerRng, Query, SolveOptions};
+use planner_core::registry;
+use rand::SeedableRng;
+use ros2_client::{
+    qos::{Durability, History, WhenFull},
+    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue,
+    Publisher, QosProfile, ServiceMapping, ServiceTypeName,
+};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, RwLock};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// Settings that `ros2 param set` may change while the node runs.
+#[derive(Clone, Debug)]
+struct Live {
+    planner: String,
+    max_planning_time: f64,
+    tolerance: f64,
+}
+
+/// A validated map with its planning grid.
+struct MapState {
+    map: GridMap,
+    grid: PlanningGrid,
+}
+
+/// What the tasks share.
+struct Shared {
+    params: NodeParams,
+    live: RwLock<Live>,
+    map: RwLock<Option<Arc<MapState>>>,
+    /// The latest start pose (map frame) and when it arrived.
+    start: RwLock<Option<(Pose2, Instant)>>,
+    /// Counts goals: a running goal plan stops when it moves on.
+    goals: AtomicU64,
+}
+
+fn now() -> Time {
+    let d = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    Time {
+        sec: d.as_secs() as i32,
+        nanosec: d.subsec_nanos(),
+    }
+}
+
+/// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
+fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), String> {
+    match (name, value) {
+        ("planner", ParameterValue::String(s)) => {
+            registry::check_name(s).map_err(|e| e.to_string())
+        }
+        ("max_planning_time" | "tolerance", ParameterValue::Double(v))
+            if v.is_finite() && *v >= 0.0 =>
+        {
+            Ok(())
+        }
+        ("max_planning_time" | "tolerance", v) => Err(format!(
+            "{name} must be a finite non-negative double, not {v:?}"
+        )),
+        ("planner", v) => Err(format!("planner must be a string, not {v:?}")),
+        _ => Err(format!("`{name}` cannot be set at run time")),
+    }
+}
+
+fn reliable(depth: usize, durability: Durability) -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(durability)
+        .history(History::KeepLast { depth })
+}
+
+/// Runs the node until Ctrl-C or SIGTERM.
+pub async fn run(params: NodeParams) -> Result<()> {
+    let live = Live {
+        planner: params.planning.planner.clone(),
+        max_planning_time: params.planning.max_planning_time,
+        tolerance: params.planning.tolerance,
+    };
+    let shared = Arc::new(Shared {
+        params: params.clone(),
+        live: RwLock::new(live.clone()),
+        map: RwLock::new(None),
+        start: RwLock::new(None),
+        goals: AtomicU64::new(0),
+    });
+    let on_set = shared.clone();
+    let options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true)
+        .declare_parameter("planner", ParameterValue::String(live.planner.clone()))
+        .declare_parameter(
+            "max_planning_time",
+            ParameterValue::Double(live.max_planning_time),
+        )
+        .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
+        .parameter_validator(Box::new(validate_parameter))
+        .parameter_set_action(Box::new(move |name, value| {
+            let mut l = on_set
+                .live
+                .write()
+                .map_err(|_| "state lock poisoned".to_string())?;
+            match (name, value) {
+                ("planner", ParameterValue::String(s)) => l.planner = s.clone(),
+                ("max_planning_time", ParameterValue::Double(v)) => l.max_planning_time = *v,
+                ("tolerance", ParameterValue::Double(v)) => l.tolerance = *v,
+                _ => return Err(format!("`{name}` cannot be set at run time")),
+            }
+            info!("parameter {name} set to {value:?}");
+            Ok(())
+        }));
+    // ros2-client starts on domain 0 unless told: honour ROS_DOMAIN_ID as every ROS 2 node does.
+    let domain = match std::env::var("ROS_DOMAIN_ID") {
+        Ok(v) if !v.trim().is_empty() => v
+            .trim()
+            .parse::<u16>()
+            .with_context(|| format!("ROS_DOMAIN_ID `{v}` is not a number"))?,
+        _ => 0,
+    };
+    let context =
+        Context::with_options(ContextOptions::new().domain_id(domain)).context("starting DDS")?;
+    let mut node = context.new_node(NodeName::new("/", "patrol_planner")?, options)?;
+    tokio::spawn(node.spinner()?.spin());
+
+    let topic = |node: &mut ros2_client::Node,
+                 ns: &str,
+                 name: &str,
+                 pkg: &str,
+                 ty: &str,
+                 qos: &QosProfile|
+     -> Result<_> {
+        Ok(node.create_topic(&Name::new(ns, name)?, MessageTypeName::new(pkg, ty), qos)?)
+    };
+    let latched = reliable(1, Durability::TransientLocal);
+    let volatile = reliable(10, Durability::Volatile);
+    let map_topic = topic(&mut node, "/", "map", "nav_msgs", "OccupancyGrid", &latched)?;
+    let map_pub =
+        Arc::new(node.create_publisher::<OccupancyGrid>(&map_topic, Some(latched.clone()))?);
+    let map_sub = node.create_subscription::<OccupancyGrid>(&map_topic, Some(latched.clone()))?;
+    let plan_topic = topic(&mut node, "/", "plan", "nav_msgs", "Path", &latched)?;
+    let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
+    let diag_topic = topic(
+        &mut node,
+        "/",
+        "diagnostics",
+        "diagnostic_msgs",
+        "DiagnosticArray",
+        &volatile,
+    )?;
+    let diag_pub =
+        Arc::new(node.create_publisher::<DiagnosticArray>(&diag_topic, Some(volatile.clone()))?);
+    let pareto_qos = reliable(1, Durability::Volatile);
+    let pareto_topic = topic(
+        &mut node,
+        "/patrol_planner",
+        "pareto",
+        "visualization_msgs",
+        "MarkerArray",
+        &pareto_qos,
+    )?;
+    let pareto_pub =
+        Arc::new(node.create_publisher::<MarkerArray>(&pareto_topic, Some(pareto_qos))?);
+    let goal_topic = topic(
+        &mut node,
+        "/",
+        "goal_pose",
+        "geometry_msgs",
+        "PoseStamped",
+        &volatile,
+    )?;
+    let goal_sub = node.create_subscription::<PoseStamped>(&goal_topic, Some(volatile.clone()))?;
+    let initial_topic = topic(
+        &mut node,
+        "/",
+        "initialpose",
+        "geometry_msgs",
+        "PoseWithCovarianceStamped",
+        &volatile,
+    )?;
+    let initial_sub = node
+        .create_subscription::<PoseWithCovarianceStamped>(&initial_topic, Some(volatile.clone()))?;
+    let amcl_topic = topic(
+        &mut node,
+        "/",
+        "amcl_pose",
+        "geometry_msgs",
+        "PoseWithCovarianceStamped",
+        &volatile,
+    )?;
+    let amcl_sub =
+        node.create_subscription::<PoseWithCovarianceStamped>(&amcl_topic, Some(volatile.clone()))?;
+    let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
+    let odom_topic = topic(&mut node, "/", "odom", "nav_msgs", "Odometry", &best_effort)?;
+    let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort))?;
+    let service_qos = reliable(10, Durability::Volatile);
+    let server = node.create_server::<GetPlanRequest, GetPlanResponse>(
+        ServiceMapping::Enhanced,
+        &Name::new("/patrol_planner", "make_plan")?,
+        &ServiceTypeName::new("nav_msgs", "GetPlan"),
+        service_qos.clone(),
+        service_qos,
+    )?;
+    let out = Outputs {
+        plan: plan_pub,
+        diagnostics: diag_pub,
+        pareto: pareto_pub,
+    };
+
+    // The bundled map, loaded by the node itself and latched on /map.
+    if !params.map_yaml.is_empty() {
+        let path = params.map_yaml.clone();
+        match tokio::task::spawn_blocking(move || {
+            planner_io::load_map_server(std::path::Path::new(&path))
+        })
+        .await?
+        {
+            Ok(map) => {
+                let msg = convert::msg_from_grid(&map, &params.global_frame, now());
+                install_map(&shared, map, "map_yaml").await;
+                if let Err(e) = map_pub.async_publish(msg).await {
+                    error!("publishing the map on /map: {e:?}");
+                }
+            }
+            Err(e) => error!("map_yaml: {e}; waiting for /map instead"),
+        }
+    }
+
+    // /map
+    let (s, o) = (shared.clone(), out.clone());
+    tokio::spawn(async move {
+        loop {
+            match map_sub.async_take().await {
+                Ok((msg, _)) => {
+                    match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
+                        Ok(Ok(map)) => install_map(&s, map, "/map").await,
+                        Ok(Err(e)) => {
+                            let f = Failure::new(
+                                "INVALID_INPUT",
+                                format!("map on /map refused, keeping the last good one: {e}"),
+                            );
+                            warn!("{}", f.message);
+                            o.diagnose(&s, 0, Err(&f), 0.0).await;
+                        }
+                        Err(e) => error!("map task: {e}"),
+                    }
+                }
+                Err(e) => warn!("/map: {e:?}"),
+            }
+        }
+    });
+
+    // Start poses: the latest of /initialpose, /amcl_pose and /odom wins.
+    for (name, sub) in [("/initialpose", initial_sub), ("/amcl_pose", amcl_sub)] {
+        let s = shared.clone();
+        tokio::spawn(async move {
+            loop {
+                let Ok((msg, _)) = sub.async_take().await else {
+                    continue;
+                };
+                let stamped = PoseStamped {
+                    header: msg.header,
+                    pose: msg.pose.pose,
+                };
+                match convert::pose_in_frame(&stamped, &s.params.global_frame) {
+                    Ok(p) => *s.start.write().expect("lock") = Some((p, Instant::now())),
+                    Err(f) => warn!("{name} ignored: {}", f.message),
+                }
+            }
+        });
+    }
+    let s = shared.clone();
+    tokio::spawn(async move {
+        loop {
+            let Ok((msg, _)) = odom_sub.async_take().await else {
+                continue;
+            };
+            match convert::pose2(&msg.pose.pose) {
+                Ok(p) => {
+                    let [ox, oy, oyaw] = s.params.map_to_odom;
+                    let (sn, cs) = oyaw.sin_cos();
+                    let in_map = Pose2::new(
+                        ox + cs * p.x - sn * p.y,
+                        oy + sn * p.x + cs * p.y,
+                        p.yaw + oyaw,
+                    );
+                    *s.start.write().expect("lock") = Some((in_map, Instant::now()));
+                }
+                Err(f) => warn!("/odom ignored: {}", f.message),
+            }
+        }
+    });
+
+    // Goals: checked on arrival, then coalesced so that only the newest is planned.
+    let (goal_tx, mut goal_rx) = tokio::sync::watch::channel::<Option<(u64, Pose2)>>(None);
+    let (s, o) = (shared.clone(), out.clone());
+    tokio::spawn(async move {
+        loop {
+            let Ok((msg, _)) = goal_sub.async_take().await else {
+                continue;
+            };
+            match convert::pose_in_frame(&msg, &s.params.global_frame) {
+                Ok(goal) => {
+                    let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
+                    let _ = goal_tx.send(Some((id, goal)));
+                }
+                Err(f) => {
+                    warn!("goal refused: {}", f.message);
+                    o.diagnose(&s, 0, Err(&f), 0.0).await;
+                }
+            }
+        }
+    });
+    let (s, o) = (shared.clone(), out.clone());
+    tokio::spawn(async move {
+        while goal_rx.changed().await.is_ok() {
+            let Some((id, goal)) = *goal_rx.borrow_and_update() else {
+                continue;
+            };
+            if s.goals.load(Ordering::SeqCst) != id {
+                continue; // a newer goal is already waiting
+            }
+            let start = s.start.read().expect("lock").map(|(p, _)| p);
+            let Some(start) = start else {
+                o.diagnose(
+                    &s,
+                    0,
+                    Err(&Failure::new(
+                        "NO_START_POSE",
+                        "no start pose yet: publish /initialpose, /amcl_pose or /odom",
+                    )),
+                    0.0,
+                )
+                .await;
+                continue;
+            };
+            let tolerance = s.live.read().expect("lock").tolerance;
+            let s2 = s.clone();
+            let Ok(outcome) =
+                tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, Some(id)))
+                    .await
+            else {
+                continue;
+            };
+            if matches!(&outcome.result, Err(f) if f.code == "CANCELLED") {
+                info!("plan for goal {id} cancelled by a newer goal");
+                continue;
+            }
+            o.publish(&s, &outcome).await;
+        }
+    });
+
+    // GetPlan: its own start when the request names a frame, else the current pose.
+    let (s, o) = (shared.clone(), out.clone());
+    tokio::spawn(async move {
+        loop {
+            let (id, req) = match server.async_receive_request().await {
+                Ok(r) => r,
+                Err(e) => {
+                    warn!("make_plan: {e:?}");
+                    continue;
+                }
+            };
+            let outcome = answer_get_plan(&s, req).await;
+            o.diagnose(
+                &s,
+                outcome.seed,
+                outcome.result.as_ref().map(|(p, _)| p),
+                outcome.elapsed_ms,
+            )
+            .await;
+            let plan = match &outcome.result {
+                Ok((plan, goal_yaw)) => {
+                    let spacing = s
+                        .map
+                        .read()
+                        .expect("lock")
+                        .as_ref()
+                        .map_or(0.05, |m| m.map.info().resolution);
+                    convert::path_msg(&plan.waypoints, *goal_yaw, spacing, o.header(&s))
+                }
+                Err(f) => {
+                    warn!("make_plan failed: {}: {}", f.code, f.message);
+                    Path {
+                        header: o.header(&s),
+                        poses: Vec::new(),
+                    }
+                }
+            };
+            if let Err(e) = server
+                .async_send_response(id, GetPlanResponse { plan })
+                .await
+            {
+                warn!("make_plan response: {e:?}");
+            }
+        }
+    });
+
+    info!(
+        "patrol_planner ready on ROS_DOMAIN_ID {domain}: planner {}, frame {}",
+        live.planner, params.global_frame
+    );
+    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => info!("Ctrl-C: shutting down"),
+        _ = term.recv() => info!("SIGTERM: shutting down"),
+    }
+    drop(node);
+    Ok(())
+}
+
+async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
+    let failed = |f: Failure| Outcome {
+        result: Err(f),
+        seed: 0,
+        elapsed_ms: 0.0,
+    };
+    let goal = match convert::pose_in_frame(&req.goal, &s.params.global_frame) {
+        Ok(g) => g,
+        Err(f) => return failed(f),
+    };
+    let start = if req.start.header.frame_id.is_empty() {
+        match s.start.read().expect("lock").map(|(p, _)| p) {
+            Some(p) => p,
+            None => {
+                return failed(Failure::new(
+                    "NO_START_POSE",
+                    "the request has no start (empty frame) and no pose arrived yet",
+                ))
+            }
+        }
+    } else {
+        match convert::pose_in_frame(&req.start, &s.params.global_frame) {
+            Ok(p) => p,
+            Err(f) => return failed(f),
+        }
+    };
+    let tolerance = if req.tolerance.is_finite() && req.tolerance > 0.0 {
+        req.tolerance as f64
+    } else {
+        s.live.read().expect("lock").tolerance
+    };
+    let s2 = s.clone();
+    tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, None))
+        .await
+        .unwrap_or_else(|e| {
+            failed(Failure::new(
+                "NO_VALID_PATH",
+                format!("planning task failed: {e}"),
+            ))
+        })
+}
+
+/// What one request produced.
+struct Outcome {
+    /// The plan and the goal's heading, or why not.
+    result: Result<(Plan, f64), Failure>,
+    seed: u64,
+    elapsed_ms: f64,
+}
+
+/// Plans on the current map with the current settings (blocking). `goal_id` makes the plan
+/// stop when a newer goal arrives.
+fn plan(s: &Shared, start: Pose2, goal: Pose2, tolerance: f64, goal_id: Option<u64>) -> Outcome {
+    let live = s.live.read().expect("lock").clone();
+    let seed = s.params.planning.seed.unwrap_or_else(rand::random);
+    let failed = |f: Failure| Outcome {
+        result: Err(f),
+        seed,
+        elapsed_ms: 0.0,
+    };
+    let Some(map) = s.map.read().expect("lock").clone() else {
+        return failed(Failure::new(
+            "NO_MAP",
+            "no map yet: publish /map or set map_yaml",
+        ));
+    };
+    let mut config = s.params.planning.clone();
+    config.planner = live.planner.clone();
+    let planner = match registry::build(&live.planner, &config) {
+        Ok(p) => p,
+        Err(e) => return failed(Failure::new("INVALID_PLANNER", e.to_string())),
+    };
+    let t0 = Instant::now();
+    let deadline = (live.max_planning_time > 0.0)
+        .then(|| t0 + Duration::from_secs_f64(live.max_planning_time));
+    let interrupt = || {
+        if goal_id.is_some_and(|id| s.goals.load(Ordering::SeqCst) != id) {
+            Some(Interrupt::Cancelled)
+        } else if deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(Interrupt::Deadline)
+        } else {
+            None
+        }
+    };
+    let mut rng = PlannerRng::seed_from_u64(seed);
+    let mut ctx = PlanContext {
+        rng: &mut rng,
+        interrupt: &interrupt,
+    };
+    let query = Query {
+        start: start.position(),
+        goal: Point2::new(goal.x, goal.y),
+        tolerance,
+    };
+    let result = planner_core::solve(
+        planner.as_ref(),
+        &map.grid,
+        &query,
+        SolveOptions {
+            smoothing: config.smoothing,
+        },
+        &mut ctx,
+    );
+    let elapsed_ms = t0.elapsed().as_secs_f64() * 1e3;
+    match result {
+        Ok(plan) => {
+            info!(
+                "{}: {:.2} m, {:.2} rad in {elapsed_ms:.1} ms (seed {seed})",
+                plan.planner, plan.metrics.length_m, plan.metrics.turning_rad
+            );
+            Outcome {
+                result: Ok((plan, goal.yaw)),
+                seed,
+                elapsed_ms,
+            }
+        }
+        Err(e) => {
+            let f = Failure::from(e);
+            if f.code != "CANCELLED" {
+                warn!("{}: {} ({}; seed {seed})", live.planner, f.message, f.code);
+            }
+            Outcome {
+                result: Err(f),
+                seed,
+                elapsed_ms,
+            }
+        }
+    }
+}
+
+async fn install_map(s: &Shared, map: GridMap, source: &str) {
+    let costmap = s.params.planning.costmap.clone();
+    let (w, h) = (map.width(), map.height());
+    match tokio::task::spawn_blocking(move || {
+        PlanningGrid::new(&map, &costmap).map(|grid| MapState { map, grid })
+    })
+    .await
+    {
+        Ok(Ok(state)) => {
+            *s.map.write().expect("lock") = Some(Arc::new(state));
+            info!("map from {source}: {w} x {h} cells");
+        }
+        Ok(Err(e)) => error!("map from {source} refused: {e}"),
+        Err(e) => error!("map task: {e}"),
+    }
+}
+
+/// The publishers every request answers on.
+#[derive(Clone)]
+struct Outputs {
+    plan: Arc<Publisher<Path>>,
+    diagnostics: Arc<Publisher<DiagnosticArray>>,
+    pareto: Arc<Publisher<MarkerArray>>,
+}
+
+impl Outputs {
+    fn header(&self, s: &Shared) -> Header {
+        Header {
+            stamp: now(),
+            frame_id: s.params.global_frame.clone(),
+        }
+    }
+
+    async fn diagnose(
+        &self,
+        s: &Shared,
+        seed: u64,
+        result: Result<&Plan, &Failure>,
+        elapsed_ms: f64,
+    ) {
+        let planner = s.live.read().expect("lock").planner.clone();
+        let msg = convert::diagnostics(self.header(s), &planner, seed, result, elapsed_ms);
+        if let Err(e) = self.diagnostics.async_publish(msg).await {
+            warn!("/diagnostics: {e:?}");
+        }
+    }
+
+    /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`.
+    async fn publish(&self, s: &Shared, outcome: &Outcome) {
+        if let Ok((plan, goal_yaw)) = &outcome.result {
+            let spacing = s
+                .map
+                .read()
+                .expect("lock")
+                .as_ref()
+                .map_or(0.05, |m| m.map.info().resolution);
+            let path = convert::path_msg(&plan.waypoints, *goal_yaw, spacing, self.header(s));
+            if let Err(e) = self.plan.async_publish(path).await {
+                warn!("/plan: {e:?}");
+            }
+            if s.params.publish_pareto && !plan.pareto.is_empty() {
+                let _ = self
+                    .pareto
+                    .async_publish(convert::pareto_markers(plan, self.header(s)))
+                    .await;
+            }
+        }
+        self.diagnose(
+            s,
+            outcome.seed,
+            outcome.result.as_ref().map(|(p, _)| p),
+            outcome.elapsed_ms,
+        )
+        .await;
+    }
+}

@@ -1,0 +1,66 @@
+//! The node's parameters: the planning part every front end shares ([`PlannerConfig`]) plus what
+//! only the node needs, read from the `patrol_planner: ros__parameters:` block of a ROS 2
+//! parameter file (Nav2's layout), `config/planner.yaml` by default.
+
+use anyhow::{Context, Result};
+use planner_core::config::PlannerConfig;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default)]
+pub struct NodeParams {
+    #[serde(flatten)]
+    pub planning: PlannerConfig,
+    /// A map_server YAML the node loads itself and publishes on `/map` (transient local), so it
+    /// works without a map server. Relative paths are relative to the parameter file. Empty: wait
+    /// for `/map`.
+    pub map_yaml: String,
+    /// The frame plans are made in; goals must be in it (or have an empty frame).
+    pub global_frame: String,
+    /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
+    /// default: odometry is the map frame, as for the simulated chassis).
+    pub map_to_odom: [f64; 3],
+    /// Publish every Pareto-front path on `/patrol_planner/pareto` for RViz.
+    pub publish_pareto: bool,
+}
+
+impl Default for NodeParams {
+    fn default() -> Self {
+        Self {
+            planning: PlannerConfig::default(),
+            map_yaml: String::new(),
+            global_frame: "map".into(),
+            map_to_odom: [0.0; 3],
+            publish_pareto: true,
+        }
+    }
+}
+
+impl NodeParams {
+    /// Loads and validates a parameter file; resolves `map_yaml` against its folder.
+    pub fn load(path: &Path) -> Result<Self> {
+        let block = planner_io::load_ros_parameters(path, "patrol_planner")?;
+        let mut params: NodeParams = serde_yaml::from_value(block)
+            .with_context(|| format!("{}: patrol_planner parameters", path.display()))?;
+        params
+            .planning
+            .validate()
+            .with_context(|| format!("{}", path.display()))?;
+        if !params.map_yaml.is_empty() {
+            let p = PathBuf::from(&params.map_yaml);
+            if p.is_relative() {
+                params.map_yaml = path
+                    .parent()
+                    .unwrap_or(Path::new("."))
+                    .join(p)
+                    .to_string_lossy()
+                    .into_owned();
+            }
+        }
+        if !params.map_to_odom.iter().all(|v| v.is_finite()) {
+            anyhow::bail!("{}: map_to_odom must be finite", path.display());
+        }
+        Ok(params)
+    }
+}

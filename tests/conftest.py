@@ -1,0 +1,109 @@
+"""Fixtures for the rclpy integration tests: the real patrol_planner release binary on its own
+ROS_DOMAIN_ID, and an rclpy node that talks to it the way a ROS 2 user's stack would. Tests wait
+for discovery and answers, never for fixed sleeps."""
+import math
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid, Path as PathMsg
+
+ROOT = Path(__file__).resolve().parent.parent
+BINARY = ROOT / "target" / "release" / "patrol_planner"
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def domain_id():
+    # One domain per test run (0..232 are valid; stay clear of 0, the default).
+    return 100 + os.getpid() % 100
+
+
+class Ros:
+    """An rclpy node with the subscriptions, publishers and clients the tests use."""
+
+    def __init__(self, domain):
+        rclpy.init(domain_id=domain)
+        self.node = rclpy.create_node(f"patrol_planner_test_{os.getpid()}")
+        self.plans, self.diagnostics, self.maps = [], [], []
+        self.node.create_subscription(PathMsg, "/plan", self.plans.append, LATCHED)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics.append, 50)
+        self.map_pub = self.node.create_publisher(OccupancyGrid, "/map", LATCHED)
+        self.goal_pub = self.node.create_publisher(PoseStamped, "/goal_pose", 10)
+        self.initial_pub = self.node.create_publisher(PoseWithCovarianceStamped, "/initialpose", 10)
+
+    def spin_until(self, predicate, timeout, what):
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            rclpy.spin_once(self.node, timeout_sec=0.05)
+            value = predicate()
+            if value:
+                return value
+        raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+    def wait_matched(self, publisher, what):
+        self.spin_until(lambda: publisher.get_subscription_count() > 0, 20, f"the node to subscribe {what}")
+
+    def diagnostics_since(self, index):
+        """(result code, message, values) of every status that arrived after `index`."""
+        out = []
+        for array in self.diagnostics[index:]:
+            for st in array.status:
+                values = {kv.key: kv.value for kv in st.values}
+                out.append((values.get("result"), st.message, values))
+        return out
+
+    def wait_code(self, index, code, timeout=20):
+        return self.spin_until(
+            lambda: next((d for d in self.diagnostics_since(index) if d[0] == code), None), timeout, f"result {code} on /diagnostics"
+        )
+
+    def close(self):
+        self.node.destroy_node()
+        rclpy.shutdown()
+
+
+@pytest.fixture(scope="session")
+def ros():
+    assert BINARY.exists(), f"{BINARY} is missing: build it with `cargo build --release -p planner-node`"
+    domain = domain_id()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="patrol_planner=info,warn")
+    log = open(ROOT / "target" / "patrol_planner_test.log", "w")
+    proc = subprocess.Popen([str(BINARY), "--params-file", str(ROOT / "config" / "planner.yaml")], env=env, stdout=log, stderr=log)
+    r = Ros(domain)
+    try:
+        yield r
+    finally:
+        r.close()
+        proc.send_signal(signal.SIGINT)
+        try:
+            code = proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise AssertionError("patrol_planner did not stop within 15 s of Ctrl-C")
+        log.close()
+        assert code == 0, f"patrol_planner exited with {code}; see target/patrol_planner_test.log"
+        assert proc.returncode is not None
+
+
+def stamped(x, y, yaw=0.0, frame="map"):
+    p = PoseStamped()
+    p.header.frame_id = frame
+    p.pose.position.x, p.pose.position.y = float(x), float(y)
+    p.pose.orientation.z, p.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    return p
+
+
+def initial_pose(x, y, frame="map"):
+    p = PoseWithCovarianceStamped()
+    p.header.frame_id = frame
+    p.pose.pose.position.x, p.pose.pose.position.y = float(x), float(y)
+    p.pose.pose.orientation.w = 1.0
+    return p
