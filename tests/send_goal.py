@@ -1,0 +1,90 @@
+"""Send goals to a running patrol_planner and print each plan, as a ROS 2 user would from rclpy:
+
+    .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9
+    .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20   # latency
+
+It publishes the start on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
+and waits for /plan and /diagnostics. Use the node's ROS_DOMAIN_ID."""
+import argparse
+import statistics
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
+from nav_msgs.msg import Path
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+
+def ok(status):
+    # rclpy gives a `byte` field back as bytes.
+    level = status.level[0] if isinstance(status.level, bytes) else status.level
+    return level == 0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--start", nargs=2, type=float, required=True, metavar=("X", "Y"))
+    ap.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"))
+    ap.add_argument("--repeat", type=int, default=1, help="send the goal this many times and report the median latency")
+    args = ap.parse_args()
+    rclpy.init()
+    node = rclpy.create_node("send_goal")
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    plans, diags = [], []
+    node.create_subscription(Path, "/plan", lambda m: plans.append((time.monotonic(), m)), latched)
+    node.create_subscription(DiagnosticArray, "/diagnostics", diags.append, 10)
+    start_pub = node.create_publisher(PoseWithCovarianceStamped, "/initialpose", 10)
+    goal_pub = node.create_publisher(PoseStamped, "/goal_pose", 10)
+    t0 = time.monotonic()
+    while (goal_pub.get_subscription_count() == 0 or start_pub.get_subscription_count() == 0) and time.monotonic() - t0 < 20:
+        rclpy.spin_once(node, timeout_sec=0.1)
+    if goal_pub.get_subscription_count() == 0:
+        raise SystemExit("no patrol_planner found (same ROS_DOMAIN_ID?)")
+    start = PoseWithCovarianceStamped()
+    start.header.frame_id = "map"
+    start.pose.pose.position.x, start.pose.pose.position.y = args.start
+    start.pose.pose.orientation.w = 1.0
+    # Our side sees the node's subscriptions before the node has matched our publishers: give
+    # discovery a moment to settle both ways, then send the start (twice, to be safe).
+    settle = time.monotonic()
+    while time.monotonic() - settle < 1.0:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    for _ in range(2):
+        start_pub.publish(start)
+        for _ in range(4):
+            rclpy.spin_once(node, timeout_sec=0.05)
+    latencies = []
+    for _ in range(args.repeat):
+        before_plans, before_diags = len(plans), len(diags)
+        goal = PoseStamped()
+        goal.header.frame_id = "map"
+        goal.pose.position.x, goal.pose.position.y = args.goal
+        goal.pose.orientation.w = 1.0
+        sent = time.monotonic()
+        goal_pub.publish(goal)
+        while len(diags) == before_diags and time.monotonic() - sent < 30:
+            rclpy.spin_once(node, timeout_sec=0.01)
+        while len(plans) == before_plans and time.monotonic() - sent < 2 and diags and ok(diags[-1].status[0]):
+            rclpy.spin_once(node, timeout_sec=0.01)
+        status = diags[-1].status[0] if len(diags) > before_diags else None
+        if status is None or not ok(status):
+            print("failed:", status and status.message)
+            continue
+        received, path = plans[-1]
+        latencies.append(received - sent)
+        values = {kv.key: kv.value for kv in status.values}
+        if args.repeat == 1:
+            print(f"{values['planner']}: {len(path.poses)} poses, {values['length_m']} m, {values['turning_rad']} rad, "
+                  f"seed {values['seed']}, {1e3 * (received - sent):.1f} ms from goal to /plan")
+            for p in path.poses[:: max(1, len(path.poses) // 10)]:
+                print(f"  ({p.pose.position.x:.2f}, {p.pose.position.y:.2f})")
+    if args.repeat > 1 and latencies:
+        print(f"goal -> /plan latency over {len(latencies)} goals: median {1e3 * statistics.median(latencies):.1f} ms, "
+              f"max {1e3 * max(latencies):.1f} ms")
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()
