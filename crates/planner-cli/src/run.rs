@@ -95,6 +95,8 @@ struct PlanOutput<'a> {
     iterations: u64,
     evaluations: u64,
     cut_short: bool,
+    best_iteration: Option<u64>,
+    counters: &'a std::collections::BTreeMap<String, f64>,
     notes: &'a [String],
     waypoints: Vec<[f64; 2]>,
 }
@@ -131,6 +133,8 @@ pub fn plan_command(
         iterations: plan.stats.iterations,
         evaluations: plan.stats.evaluations,
         cut_short: plan.stats.cut_short,
+        best_iteration: plan.stats.best_iteration,
+        counters: &plan.stats.counters,
         notes: &plan.stats.notes,
         waypoints: plan.waypoints.iter().map(|p| [p.x, p.y]).collect(),
     };

@@ -4,6 +4,7 @@
 //! This is the planning part of the node's `patrol_planner: ros__parameters:` block (see
 //! `config/planner.yaml`); each planner family adds its own section here.
 
+use crate::ant_colony::ColonyParams;
 use crate::inflation::InflationConfig;
 use crate::potential::ApfParams;
 use crate::swarm::SwarmParams;
@@ -48,6 +49,8 @@ pub struct PlannerConfig {
     pub apf: ApfParams,
     /// The swarm planners (mocmcso, mocso, mopso, cmcso, cso, pso): table 3 of the patrol car paper.
     pub swarm: SwarmParams,
+    /// The ant colonies (eapf_iaco, aco, aco_apf): the substation paper's parameters.
+    pub colony: ColonyParams,
 }
 
 pub fn default_planner() -> String {
@@ -71,6 +74,7 @@ impl Default for PlannerConfig {
             costmap: InflationConfig::default(),
             apf: ApfParams::default(),
             swarm: SwarmParams::default(),
+            colony: ColonyParams::default(),
         }
     }
 }
@@ -95,6 +99,7 @@ impl PlannerConfig {
         }
         self.costmap.validate()?;
         self.apf.validate()?;
-        self.swarm.validate()
+        self.swarm.validate()?;
+        self.colony.validate()
     }
 }

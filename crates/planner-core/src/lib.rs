@@ -17,6 +17,7 @@
 //! assert!(plan.metrics.collision_free);
 //! ```
 
+pub mod ant_colony;
 pub mod any_angle;
 pub mod astar;
 pub mod config;

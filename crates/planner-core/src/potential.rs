@@ -57,6 +57,10 @@ pub struct ApfParams {
     pub sweep_step_deg: f64,
     /// Total step budget, as a multiple of (width + height) of the grid. Default 4.
     pub step_budget_factor: f64,
+    /// Apply eq. 9's goal-distance factor to the repulsion (the patrol car paper's field). The
+    /// substation paper's EAPF (planner `eapf`, and the ant colony's force field) has none and
+    /// switches it off. Default true.
+    pub goal_distance_factor: bool,
 }
 
 impl Default for ApfParams {
@@ -73,6 +77,7 @@ impl Default for ApfParams {
             traction_growth: 1.2,
             sweep_step_deg: 5.0,
             step_budget_factor: 4.0,
+            goal_distance_factor: true,
         }
     }
 }
@@ -145,8 +150,12 @@ impl<'a> PotentialField<'a> {
         }
     }
 
-    /// Eq. 9's factor: 0 at the goal, towards 1 a few chassis radii away.
+    /// Eq. 9's factor: 0 at the goal, towards 1 a few chassis radii away (1 everywhere when the
+    /// field has no goal-distance factor).
     pub fn goal_factor(&self, p: Point2) -> f64 {
+        if !self.params.goal_distance_factor {
+            return 1.0;
+        }
         let d2 = ((p - self.goal) * self.grid.resolution()).norm_squared();
         1.0 - (-d2 / self.params.chassis_radius.powi(2)).exp()
     }
@@ -180,17 +189,37 @@ impl<'a> PotentialField<'a> {
     }
 }
 
-/// Planner `apf`: the potential-field path alone (with its escapes). When even the escape cannot
-/// reach the goal within its step budget it reports that (`notes`, counter `apf_fallback`) and
-/// returns A*'s path instead, as the issue asks of the field everywhere.
+/// Planners `apf` (the patrol car paper's field, eq. 1-9) and `eapf` (the substation paper's
+/// enhanced field: eq. 1-2 without eq. 9's factor, with the same virtual-traction escape): the
+/// potential-field path alone. When even the escape cannot reach the goal within its step budget
+/// it reports that (`notes`, counter `apf_fallback`) and returns A*'s path instead.
 #[derive(Clone, Debug, Default)]
 pub struct ApfPlanner {
     pub params: ApfParams,
+    /// `eapf` rather than `apf`: the substation paper's field.
+    pub substation_field: bool,
+}
+
+impl ApfPlanner {
+    /// The substation paper's EAPF with these parameters (eq. 9's factor off).
+    pub fn eapf(params: &ApfParams) -> Self {
+        Self {
+            params: ApfParams {
+                goal_distance_factor: false,
+                ..params.clone()
+            },
+            substation_field: true,
+        }
+    }
 }
 
 impl crate::planner::Planner for ApfPlanner {
     fn name(&self) -> &'static str {
-        "apf"
+        if self.substation_field {
+            "eapf"
+        } else {
+            "apf"
+        }
     }
 
     fn plan(

@@ -1,6 +1,7 @@
 //! The name table: the one place that maps planner names to implementations. The node and the
 //! CLI select planners through it, so a new planner needs one line here and nothing else.
 
+use crate::ant_colony::{ColonyPlanner, ColonyVariant};
 use crate::any_angle::AnyAngle;
 use crate::astar::AStar;
 use crate::config::{ParamError, PlannerConfig};
@@ -19,6 +20,10 @@ pub const PLANNER_NAMES: &[&str] = &[
     "cmcso",
     "cso",
     "pso",
+    "eapf",
+    "eapf_iaco",
+    "aco",
+    "aco_apf",
 ];
 
 /// Checks a planner name, with the list of valid ones in the error.
@@ -41,6 +46,17 @@ pub fn build(name: &str, config: &PlannerConfig) -> Result<Box<dyn Planner>, Par
     config.costmap.validate()?;
     config.apf.validate()?;
     config.swarm.validate()?;
+    config.colony.validate()?;
+    if let Some(&variant) = ColonyVariant::ALL.iter().find(|v| v.name() == name) {
+        return Ok(Box::new(ColonyPlanner {
+            variant,
+            params: config.colony.clone(),
+            apf: config.apf.clone(),
+        }));
+    }
+    if name == "eapf" {
+        return Ok(Box::new(ApfPlanner::eapf(&config.apf)));
+    }
     if let Some(&variant) = Variant::ALL.iter().find(|v| v.name() == name) {
         return Ok(Box::new(SwarmPlanner {
             variant,
@@ -53,6 +69,7 @@ pub fn build(name: &str, config: &PlannerConfig) -> Result<Box<dyn Planner>, Par
         "any_angle" => Ok(Box::new(AnyAngle)),
         "apf" => Ok(Box::new(ApfPlanner {
             params: config.apf.clone(),
+            substation_field: false,
         })),
         other => check_name(other).map(|_| unreachable!("check_name accepted an unlisted name")),
     }

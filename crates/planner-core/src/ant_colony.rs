@@ -1,0 +1,550 @@
+//! The substation paper's improved ant colony guided by the enhanced potential field (EAPF-IACO),
+//! with its baselines, on one colony driver (`eapf-iaco-substation.txt`, eq. 12–22):
+//!
+//! | planner | heuristic eta | initial pheromone | global update |
+//! |---|---|---|---|
+//! | `eapf_iaco` | eq. 14–16: `(1 - phi)/phi * delta^(F_i cos theta) * 1/d(j, goal)` | eq. 17–18: a band along the start–goal line, zero on obstacles | eq. 20–22 on the best-so-far ant, with the adjustment coefficient |
+//! | `aco` | eq. 12: `1 / d_ij` | uniform | ant system: every ant deposits `1 / L_k` |
+//! | `aco_apf` | Wang et al. 2018: `delta^(F_i cos theta) / d_ij` (original APF force) | uniform | ant system |
+//!
+//! Shared by all three: ants walk the same 8-neighbour moves as A* (no corner cutting), choose
+//! by eq. 13's roulette (`tau^alpha * eta^beta`), never revisit a cell, and are dropped (and
+//! counted) when boxed in or past a step budget; the local update eq. 19 follows every step. A run
+//! stops after `iterations`, after `patience` iterations without a shorter path, or when
+//! interrupted (then the best path so far comes back). The delete operation (genetic algorithm
+//! paper 4.5) is applied to the returned path by default: colony paths are staircases.
+//!
+//! Decisions where the paper is silent (each a parameter):
+//! - pheromone lives on cells: eq. 18 assigns it to grid positions, so `tau_ij` is read as the
+//!   pheromone of the cell `j` moved into;
+//! - `F_i` is the field's force at the current cell normalised to unit length, so
+//!   `eta_F = delta^(cos theta)` lies in `[1/delta, delta]` whatever the field's scale;
+//! - eq. 14's `(1 - phi)/phi` multiplies every candidate's eta alike and so cancels in eq. 13's
+//!   normalisation: it is implemented as written, and has no effect on the choice;
+//! - eq. 18's band: `tau_0 = T * max(C - k, 1) / C` at `k` cells from the actual start–goal line
+//!   (the paper's `y = -x + C` is that line for its own corner layout), `C` = `band` cells;
+//! - eq. 22's coefficient reaches 0 at `N_k = N_max`; pheromone never falls below `tau_min` so
+//!   that eq. 13 stays defined;
+//! - the first good path is the EAPF path (escapes included), or A*'s when the EAPF cannot reach
+//!   the goal (the swarms' rule; the result says so); it seeds the best-so-far ant.
+
+use crate::astar::astar_cells;
+use crate::config::ParamError;
+use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
+use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::potential::{descend, ApfParams, PotentialField};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the colony planners (paper defaults where it gives them).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ColonyParams {
+    /// Ants per iteration. Default 100 (paper).
+    pub ants: usize,
+    /// Iterations. Default 100 (paper).
+    pub iterations: usize,
+    /// Stop after this many iterations without a shorter path. Default 20.
+    pub patience: usize,
+    /// alpha of eq. 13: pheromone weight. Default 1.
+    pub alpha: f64,
+    /// beta of eq. 13: heuristic weight. Default 7 (ALGORITHMS.md).
+    pub beta: f64,
+    /// rho of eq. 19–22: evaporation. Default 0.6 (paper).
+    pub rho: f64,
+    /// phi of eq. 14 (0 < phi < 1). Default 0.5.
+    pub phi: f64,
+    /// delta of eq. 16 (> 0): how strongly a move along the field's force is preferred. Default 2.
+    pub delta: f64,
+    /// omega of eq. 19 (0 < omega < 1): share of the initial pheromone restored on each step.
+    /// Default 0.1.
+    pub omega: f64,
+    /// T of eq. 18: initial pheromone on the start–goal line. Default 1.
+    pub initial_pheromone: f64,
+    /// C of eq. 18: half-width (cells) of the initial pheromone band. Default 10.
+    pub band: f64,
+    /// Pheromone floor, as a share of T. Default 1e-4.
+    pub tau_min: f64,
+    /// An ant gives up after this many steps, as a multiple of (width + height). Default 4.
+    pub step_budget_factor: f64,
+}
+
+impl Default for ColonyParams {
+    fn default() -> Self {
+        Self {
+            ants: 100,
+            iterations: 100,
+            patience: 20,
+            alpha: 1.0,
+            beta: 7.0,
+            rho: 0.6,
+            phi: 0.5,
+            delta: 2.0,
+            omega: 0.1,
+            initial_pheromone: 1.0,
+            band: 10.0,
+            tau_min: 1e-4,
+            step_budget_factor: 4.0,
+        }
+    }
+}
+
+impl ColonyParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if self.ants == 0 || self.iterations == 0 || self.patience == 0 {
+            return Err(ParamError::new(
+                "colony.ants",
+                "ants, iterations and patience must be at least 1",
+            ));
+        }
+        let open_unit = [
+            ("colony.rho", self.rho),
+            ("colony.phi", self.phi),
+            ("colony.omega", self.omega),
+        ];
+        for (name, v) in open_unit {
+            if !(v > 0.0 && v < 1.0) {
+                return Err(ParamError::new(name, format!("{v} is outside (0, 1)")));
+            }
+        }
+        let positive = [
+            ("colony.delta", self.delta),
+            ("colony.initial_pheromone", self.initial_pheromone),
+            ("colony.band", self.band),
+            ("colony.tau_min", self.tau_min),
+            ("colony.step_budget_factor", self.step_budget_factor),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ParamError::new(
+                    name,
+                    format!("{v} must be finite and positive"),
+                ));
+            }
+        }
+        for (name, v) in [("colony.alpha", self.alpha), ("colony.beta", self.beta)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ParamError::new(
+                    name,
+                    format!("{v} must be finite and non-negative"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which colony.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColonyVariant {
+    EapfIaco,
+    Aco,
+    AcoApf,
+}
+
+impl ColonyVariant {
+    pub const ALL: [ColonyVariant; 3] = [
+        ColonyVariant::EapfIaco,
+        ColonyVariant::Aco,
+        ColonyVariant::AcoApf,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ColonyVariant::EapfIaco => "eapf_iaco",
+            ColonyVariant::Aco => "aco",
+            ColonyVariant::AcoApf => "aco_apf",
+        }
+    }
+}
+
+/// A colony planner.
+#[derive(Clone, Debug)]
+pub struct ColonyPlanner {
+    pub variant: ColonyVariant,
+    pub params: ColonyParams,
+    /// The potential field of the heuristic (EAPF for `eapf_iaco`, the original APF for
+    /// `aco_apf`).
+    pub apf: ApfParams,
+}
+
+/// Eq. 22's adjustment coefficient `1 - e^((N_k - N_max) / N_max)`.
+pub fn adjustment_coefficient(n_k: usize, n_max: usize) -> f64 {
+    1.0 - ((n_k as f64 - n_max as f64) / n_max as f64).exp()
+}
+
+/// Eq. 16: `delta^(F cos theta)` with `F` the force normalised to unit length, for a move `dir`.
+pub fn eta_force(force: Vector2, dir: Vector2, delta: f64) -> f64 {
+    let (f, d) = (force.norm(), dir.norm());
+    if f < 1e-12 || d < 1e-12 {
+        return 1.0;
+    }
+    delta.powf(force.dot(&dir) / (f * d))
+}
+
+/// Eq. 13: the probability of each candidate from its pheromone and heuristic.
+pub fn transition_probabilities(tau: &[f64], eta: &[f64], alpha: f64, beta: f64) -> Vec<f64> {
+    let w: Vec<f64> = tau
+        .iter()
+        .zip(eta)
+        .map(|(t, e)| t.powf(alpha) * e.powf(beta))
+        .collect();
+    let sum: f64 = w.iter().sum();
+    w.iter().map(|x| x / sum).collect()
+}
+
+/// Eq. 17–18: the initial pheromone of a cell `k` cells (rounded) from the start–goal line.
+pub fn band_pheromone(cell: Point2, start: Point2, goal: Point2, t: f64, c: f64) -> f64 {
+    let d = goal - start;
+    let len = d.norm();
+    let dist = if len < 1e-12 {
+        (cell - start).norm()
+    } else {
+        ((cell - start).perp(&d) / len).abs()
+    };
+    let k = dist.round();
+    t * (c - k).max(1.0) / c
+}
+
+impl Planner for ColonyPlanner {
+    fn name(&self) -> &'static str {
+        self.variant.name()
+    }
+
+    fn smooth_by_default(&self) -> bool {
+        true
+    }
+
+    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
+        let grid = problem.grid;
+        let p = &self.params;
+        let (w, h) = (grid.width(), grid.height());
+        let n = w * h;
+        let info = *grid.info();
+        let index = |c: Cell| info.index(c);
+        let mut stats = PlanStats::default();
+
+        // The field of the heuristic: EAPF (no eq. 9 factor) or the patrol car paper's APF.
+        let field_params = match self.variant {
+            ColonyVariant::EapfIaco => ApfParams {
+                goal_distance_factor: false,
+                ..self.apf.clone()
+            },
+            _ => self.apf.clone(),
+        };
+        let goal_c = problem.goal.center();
+        // Eq. 14-16 (or 12), precomputed per cell and move: the heuristic does not change.
+        let field = PotentialField::new(grid, &field_params, goal_c);
+        let mut eta_beta = vec![0f64; n * 8];
+        for y in 0..h as i32 {
+            for x in 0..w as i32 {
+                let c = Cell::new(x, y);
+                if !grid.is_free(c) {
+                    continue;
+                }
+                let force = if self.variant == ColonyVariant::Aco {
+                    Vector2::zeros()
+                } else {
+                    field.force(c)
+                };
+                for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
+                    let dir = Vector2::new(dx as f64, dy as f64);
+                    let next = c.offset(dx, dy);
+                    let eta = match self.variant {
+                        ColonyVariant::Aco => 1.0 / dir.norm(),
+                        ColonyVariant::AcoApf => eta_force(force, dir, p.delta) / dir.norm(),
+                        ColonyVariant::EapfIaco => {
+                            let d_je = (next.center() - goal_c).norm().max(1e-9);
+                            (1.0 - p.phi) / p.phi * eta_force(force, dir, p.delta) / d_je
+                        }
+                    };
+                    eta_beta[index(c) * 8 + k] = eta.powf(p.beta);
+                }
+            }
+        }
+
+        // Initial pheromone: eq. 17-18's band for eapf_iaco, uniform for the baselines; 0 on obstacles.
+        let t = p.initial_pheromone;
+        let tau0: Vec<f64> = (0..n)
+            .map(|i| {
+                let c = info.cell_at(i);
+                if !grid.is_free(c) {
+                    0.0
+                } else if self.variant == ColonyVariant::EapfIaco {
+                    band_pheromone(c.center(), problem.start.center(), goal_c, t, p.band)
+                } else {
+                    t
+                }
+            })
+            .collect();
+        let mut tau = tau0.clone();
+        let floor = p.tau_min * t;
+
+        // The first good path: the EAPF path (eapf_iaco only).
+        let mut best: Option<(Vec<Cell>, f64)> = None;
+        if self.variant == ColonyVariant::EapfIaco {
+            let cells = match descend(grid, &field_params, problem.start, problem.goal) {
+                Ok(path) => {
+                    stats
+                        .notes
+                        .push(format!("first good path: EAPF ({} escapes)", path.escapes));
+                    path.cells
+                }
+                Err(f) => {
+                    // As for the swarms' seed: A* stands in when the field cannot reach the goal.
+                    stats.notes.push(format!(
+                        "first good path: A*, because the EAPF failed ({} after {} steps)",
+                        f.reason, f.steps
+                    ));
+                    stats.counters.insert("apf_fallback".into(), 1.0);
+                    astar_cells(grid, problem.start, problem.goal, ctx)?.0
+                }
+            };
+            let len = cell_length(&cells);
+            best = Some((cells, len));
+        }
+
+        let budget = (p.step_budget_factor * (w + h) as f64) as usize;
+        let mut visited = vec![0u32; n];
+        let mut stamp = 0u32;
+        let (mut dropped, mut since_improvement) = (0u64, 0usize);
+        let mut walk = Vec::with_capacity(budget);
+        let mut cand: Vec<(Cell, f64)> = Vec::with_capacity(8);
+        for it in 0..p.iterations {
+            if (ctx.interrupt)().is_some() {
+                stats.cut_short = true;
+                break;
+            }
+            stats.iterations += 1;
+            let mut improved = false;
+            let mut finished: Vec<(Vec<Cell>, f64)> = Vec::new();
+            for _ in 0..p.ants {
+                stamp = stamp.wrapping_add(1);
+                walk.clear();
+                let mut cur = problem.start;
+                walk.push(cur);
+                visited[index(cur)] = stamp;
+                let mut reached = false;
+                while walk.len() <= budget {
+                    if cur == problem.goal {
+                        reached = true;
+                        break;
+                    }
+                    cand.clear();
+                    for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
+                        let nb = cur.offset(dx, dy);
+                        let ok = grid.is_free(nb)
+                            && visited[index(nb)] != stamp
+                            && (dx == 0
+                                || dy == 0
+                                || (grid.is_free(cur.offset(dx, 0))
+                                    && grid.is_free(cur.offset(0, dy))));
+                        if ok {
+                            // Eq. 13's weight: tau^alpha * eta^beta.
+                            let weight = tau[index(nb)].max(floor).powf(p.alpha)
+                                * eta_beta[index(cur) * 8 + k];
+                            cand.push((nb, weight));
+                        }
+                    }
+                    let total: f64 = cand.iter().map(|c| c.1).sum();
+                    if cand.is_empty() || total.is_nan() || total <= 0.0 {
+                        break; // boxed in: dropped
+                    }
+                    let mut r = ctx.rng.random::<f64>() * total;
+                    let mut next = cand[cand.len() - 1].0;
+                    for &(c, wgt) in &cand {
+                        if r < wgt {
+                            next = c;
+                            break;
+                        }
+                        r -= wgt;
+                    }
+                    // Eq. 19: local update of the cell moved into.
+                    let j = index(next);
+                    tau[j] = ((1.0 - p.rho) * tau[j] + p.omega * tau0[j]).max(floor);
+                    visited[j] = stamp;
+                    walk.push(next);
+                    cur = next;
+                }
+                stats.evaluations += 1;
+                if reached {
+                    let len = cell_length(&walk);
+                    if best.as_ref().is_none_or(|b| len < b.1 - 1e-9) {
+                        best = Some((walk.clone(), len));
+                        improved = true;
+                        stats.best_iteration = Some(it as u64 + 1);
+                    }
+                    if self.variant != ColonyVariant::EapfIaco {
+                        finished.push((walk.clone(), len));
+                    }
+                } else {
+                    dropped += 1;
+                }
+            }
+            // Global update.
+            match self.variant {
+                ColonyVariant::EapfIaco => {
+                    // Eq. 20-22 on the best-so-far ant.
+                    let coeff = adjustment_coefficient(it, p.iterations);
+                    for v in tau.iter_mut() {
+                        *v *= 1.0 - p.rho;
+                    }
+                    if let Some((cells, len)) = &best {
+                        for c in cells {
+                            tau[index(*c)] += 1.0 / len;
+                        }
+                    }
+                    for (v, &t0) in tau.iter_mut().zip(&tau0) {
+                        if t0 > 0.0 {
+                            *v = (*v * coeff).max(floor);
+                        }
+                    }
+                }
+                _ => {
+                    // The ant system: evaporation, then every finished ant deposits 1 / L_k.
+                    for v in tau.iter_mut() {
+                        *v = (*v * (1.0 - p.rho)).max(floor);
+                    }
+                    for (cells, len) in &finished {
+                        for c in cells {
+                            tau[index(*c)] += 1.0 / len;
+                        }
+                    }
+                }
+            }
+            stats.convergence.push(
+                best.as_ref()
+                    .map_or(f64::INFINITY, |b| b.1 * info.resolution),
+            );
+            since_improvement = if improved { 0 } else { since_improvement + 1 };
+            if since_improvement >= p.patience {
+                stats.notes.push(format!(
+                    "converged: no shorter path for {} iterations",
+                    p.patience
+                ));
+                break;
+            }
+        }
+        stats.counters.insert("dropped_ants".into(), dropped as f64);
+        let Some((cells, _)) = best else {
+            return Err(if stats.cut_short {
+                PlanError::TimedOut
+            } else {
+                PlanError::NoValidPath(format!("no ant reached the goal ({dropped} dropped)"))
+            });
+        };
+        Ok(RawPlan {
+            waypoints: cells.iter().map(|c| c.center()).collect(),
+            stats,
+            pareto: Vec::new(),
+        })
+    }
+}
+
+fn cell_length(cells: &[Cell]) -> f64 {
+    cells
+        .windows(2)
+        .map(|w| (w[1].center() - w[0].center()).norm())
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eq13_probabilities_sum_to_one_and_favour_the_expected_cell() {
+        // Three candidates: equal pheromone, the second with twice the heuristic.
+        let p = transition_probabilities(&[1.0, 1.0, 1.0], &[1.0, 2.0, 1.0], 1.0, 2.0);
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        // Weights 1, 4, 1: the second gets 4/6.
+        assert!((p[1] - 4.0 / 6.0).abs() < 1e-12);
+        // Pheromone counts too: more on the third moves probability to it.
+        let q = transition_probabilities(&[1.0, 1.0, 5.0], &[1.0, 1.0, 1.0], 1.0, 7.0);
+        assert!(q[2] > q[0] && (q[2] - 5.0 / 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn eq16_is_largest_along_the_force() {
+        let force = Vector2::new(3.0, 4.0);
+        let along = eta_force(force, force, 2.0);
+        assert!((along - 2.0).abs() < 1e-12);
+        assert!((eta_force(force, -force, 2.0) - 0.5).abs() < 1e-12);
+        for (dx, dy) in NEIGHBOURS_8 {
+            assert!(eta_force(force, Vector2::new(dx as f64, dy as f64), 2.0) <= along + 1e-12);
+        }
+        assert_eq!(eta_force(Vector2::zeros(), force, 2.0), 1.0);
+    }
+
+    #[test]
+    fn eq18_band_is_highest_on_the_line_and_decays() {
+        let (s, g) = (Point2::new(0.5, 0.5), Point2::new(19.5, 19.5));
+        let on = band_pheromone(Point2::new(10.5, 10.5), s, g, 1.0, 10.0);
+        let near = band_pheromone(Point2::new(11.5, 10.5), s, g, 1.0, 10.0);
+        let far = band_pheromone(Point2::new(19.5, 0.5), s, g, 1.0, 10.0);
+        assert_eq!(on, 1.0);
+        assert!(near < on && far < near);
+        assert!((far - 0.1).abs() < 1e-12, "the floor is T / C");
+    }
+
+    #[test]
+    fn eq22_coefficient() {
+        assert!((adjustment_coefficient(0, 100) - (1.0 - (-1.0f64).exp())).abs() < 1e-12);
+        assert!((adjustment_coefficient(50, 100) - (1.0 - (-0.5f64).exp())).abs() < 1e-12);
+        assert_eq!(adjustment_coefficient(100, 100), 0.0);
+    }
+
+    #[test]
+    fn every_colony_finds_a_path_and_eapf_iaco_puts_no_pheromone_on_obstacles() {
+        use crate::planner::{solve, Query, SolveOptions};
+        use crate::test_support::{grid_from_rows, rng};
+        let grid = grid_from_rows(&[
+            "..........",
+            "...####...",
+            "......#...",
+            "......#...",
+            "..........",
+        ]);
+        let q = Query {
+            start: Point2::new(0.5, 0.5),
+            goal: Point2::new(9.5, 4.5),
+            tolerance: 0.0,
+        };
+        for variant in ColonyVariant::ALL {
+            let planner = ColonyPlanner {
+                variant,
+                params: ColonyParams {
+                    ants: 20,
+                    iterations: 20,
+                    ..Default::default()
+                },
+                apf: ApfParams::default(),
+            };
+            let mut r = rng(3);
+            let plan = solve(
+                &planner,
+                &grid,
+                &q,
+                SolveOptions::default(),
+                &mut PlanContext::never_interrupted(&mut r),
+            )
+            .unwrap();
+            assert!(plan.metrics.collision_free, "{}", variant.name());
+            let mut r = rng(3);
+            let again = solve(
+                &planner,
+                &grid,
+                &q,
+                SolveOptions::default(),
+                &mut PlanContext::never_interrupted(&mut r),
+            )
+            .unwrap();
+            assert_eq!(
+                plan.waypoints,
+                again.waypoints,
+                "{}: same seed, same path",
+                variant.name()
+            );
+        }
+    }
+}
