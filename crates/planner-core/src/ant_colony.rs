@@ -31,6 +31,7 @@
 use crate::astar::astar_cells;
 use crate::config::ParamError;
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
+use crate::inflation::PlanningGrid;
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
 use crate::potential::{descend, ApfParams, PotentialField};
 use rand::Rng;
@@ -206,6 +207,30 @@ pub fn band_pheromone(cell: Point2, start: Point2, goal: Point2, t: f64, c: f64)
     t * (c - k).max(1.0) / c
 }
 
+/// The initial pheromone of every cell (row-major): eq. 17-18's band along the start-goal line
+/// for `eapf_iaco`, uniform `T` for the baselines, and zero on every blocked cell.
+pub fn initial_pheromone(
+    grid: &PlanningGrid,
+    variant: ColonyVariant,
+    start: Point2,
+    goal: Point2,
+    p: &ColonyParams,
+) -> Vec<f64> {
+    let info = grid.info();
+    (0..info.cell_count())
+        .map(|i| {
+            let c = info.cell_at(i);
+            if !grid.is_free(c) {
+                0.0
+            } else if variant == ColonyVariant::EapfIaco {
+                band_pheromone(c.center(), start, goal, p.initial_pheromone, p.band)
+            } else {
+                p.initial_pheromone
+            }
+        })
+        .collect()
+}
+
 impl Planner for ColonyPlanner {
     fn name(&self) -> &'static str {
         self.variant.name()
@@ -263,20 +288,8 @@ impl Planner for ColonyPlanner {
             }
         }
 
-        // Initial pheromone: eq. 17-18's band for eapf_iaco, uniform for the baselines; 0 on obstacles.
+        let tau0 = initial_pheromone(grid, self.variant, problem.start.center(), goal_c, p);
         let t = p.initial_pheromone;
-        let tau0: Vec<f64> = (0..n)
-            .map(|i| {
-                let c = info.cell_at(i);
-                if !grid.is_free(c) {
-                    0.0
-                } else if self.variant == ColonyVariant::EapfIaco {
-                    band_pheromone(c.center(), problem.start.center(), goal_c, t, p.band)
-                } else {
-                    t
-                }
-            })
-            .collect();
         let mut tau = tau0.clone();
         let floor = p.tau_min * t;
 
@@ -488,6 +501,35 @@ mod tests {
     }
 
     #[test]
+    fn eq18_pheromone_is_zero_on_obstacles_and_highest_on_the_free_line() {
+        use crate::test_support::grid_from_rows;
+        let grid = grid_from_rows(&["....#", "..#..", ".....", "....."]);
+        let (s, g) = (Point2::new(0.5, 0.5), Point2::new(4.5, 3.5));
+        let p = ColonyParams {
+            band: 3.0,
+            ..ColonyParams::default()
+        };
+        let tau = initial_pheromone(&grid, ColonyVariant::EapfIaco, s, g, &p);
+        let info = grid.info();
+        for (i, &t) in tau.iter().enumerate() {
+            let c = info.cell_at(i);
+            if !grid.is_free(c) {
+                assert_eq!(t, 0.0, "{c:?} is blocked");
+            }
+        }
+        // On the line (the start cell) it is T; off it, less; the baselines are uniform.
+        assert_eq!(tau[info.index(Cell::new(0, 0))], 1.0);
+        assert!(tau[info.index(Cell::new(0, 3))] < 1.0);
+        let uniform = initial_pheromone(&grid, ColonyVariant::Aco, s, g, &p);
+        assert!(uniform.iter().enumerate().all(|(i, &v)| v
+            == if grid.is_free(info.cell_at(i)) {
+                1.0
+            } else {
+                0.0
+            }));
+    }
+
+    #[test]
     fn eq22_coefficient() {
         assert!((adjustment_coefficient(0, 100) - (1.0 - (-1.0f64).exp())).abs() < 1e-12);
         assert!((adjustment_coefficient(50, 100) - (1.0 - (-0.5f64).exp())).abs() < 1e-12);
@@ -495,7 +537,7 @@ mod tests {
     }
 
     #[test]
-    fn every_colony_finds_a_path_and_eapf_iaco_puts_no_pheromone_on_obstacles() {
+    fn every_colony_finds_a_collision_free_path_and_is_deterministic() {
         use crate::planner::{solve, Query, SolveOptions};
         use crate::test_support::{grid_from_rows, rng};
         let grid = grid_from_rows(&[

@@ -155,3 +155,19 @@ fn config_typos_are_errors() {
     let err = load_planner_config(&p).unwrap_err().to_string();
     assert!(err.contains("unknown planner"), "{err}");
 }
+
+/// A map_server YAML whose image is missing fails with the image's path in the message.
+#[test]
+fn a_missing_image_is_an_error_naming_it() {
+    let dir = std::env::temp_dir().join(format!("planner-io-missing-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let yaml = dir.join("m.yaml");
+    std::fs::write(
+        &yaml,
+        "image: nowhere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n",
+    )
+    .unwrap();
+    let err = load_map_server(&yaml).unwrap_err();
+    assert!(matches!(err, LoadError::Io { .. }), "{err}");
+    assert!(err.to_string().contains("nowhere.pgm"), "{err}");
+}
