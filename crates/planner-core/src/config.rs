@@ -5,6 +5,7 @@
 //! `config/planner.yaml`); each planner family adds its own section here.
 
 use crate::ant_colony::ColonyParams;
+use crate::genetic::GaParams;
 use crate::inflation::InflationConfig;
 use crate::potential::ApfParams;
 use crate::swarm::SwarmParams;
@@ -51,6 +52,8 @@ pub struct PlannerConfig {
     pub swarm: SwarmParams,
     /// The ant colonies (eapf_iaco, aco, aco_apf): the substation paper's parameters.
     pub colony: ColonyParams,
+    /// The genetic planners (imga, ga): the genetic algorithm paper's parameters.
+    pub genetic: GaParams,
 }
 
 pub fn default_planner() -> String {
@@ -75,6 +78,7 @@ impl Default for PlannerConfig {
             apf: ApfParams::default(),
             swarm: SwarmParams::default(),
             colony: ColonyParams::default(),
+            genetic: GaParams::default(),
         }
     }
 }
@@ -100,6 +104,7 @@ impl PlannerConfig {
         self.costmap.validate()?;
         self.apf.validate()?;
         self.swarm.validate()?;
-        self.colony.validate()
+        self.colony.validate()?;
+        self.genetic.validate()
     }
 }

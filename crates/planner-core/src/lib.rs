@@ -21,6 +21,7 @@ pub mod ant_colony;
 pub mod any_angle;
 pub mod astar;
 pub mod config;
+pub mod genetic;
 pub mod geometry;
 pub mod grid;
 pub mod inflation;

@@ -5,6 +5,7 @@ use crate::ant_colony::{ColonyPlanner, ColonyVariant};
 use crate::any_angle::AnyAngle;
 use crate::astar::AStar;
 use crate::config::{ParamError, PlannerConfig};
+use crate::genetic::{GaPlanner, GaVariant};
 use crate::planner::Planner;
 use crate::potential::ApfPlanner;
 use crate::swarm::{SwarmPlanner, Variant};
@@ -24,6 +25,8 @@ pub const PLANNER_NAMES: &[&str] = &[
     "eapf_iaco",
     "aco",
     "aco_apf",
+    "imga",
+    "ga",
 ];
 
 /// Checks a planner name, with the list of valid ones in the error.
@@ -47,6 +50,13 @@ pub fn build(name: &str, config: &PlannerConfig) -> Result<Box<dyn Planner>, Par
     config.apf.validate()?;
     config.swarm.validate()?;
     config.colony.validate()?;
+    config.genetic.validate()?;
+    if let Some(&variant) = GaVariant::ALL.iter().find(|v| v.name() == name) {
+        return Ok(Box::new(GaPlanner {
+            variant,
+            params: config.genetic.clone(),
+        }));
+    }
     if let Some(&variant) = ColonyVariant::ALL.iter().find(|v| v.name() == name) {
         return Ok(Box::new(ColonyPlanner {
             variant,

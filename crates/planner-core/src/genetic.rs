@@ -1,0 +1,669 @@
+//! The improved multi-objective genetic algorithm (IMGA) of the genetic algorithm paper
+//! (`imga-multiobjective-ga.txt`, sections 3.3–4.6) and a plain GA baseline, on one driver.
+//!
+//! - Chromosome: the cells of a continuous path from start to goal, no repeats, no obstacles.
+//!   "Continuous" uses A*'s move rule (8-neighbours, no corner cutting), so every chromosome also
+//!   passes the project's collision rule.
+//! - Initial population (4.1): `[S, R, G]` with `R` a random free cell, then, while two adjacent
+//!   genes are not neighbours, insert the median cell between them (eq. 3), or a random free
+//!   8-neighbour of it when it is blocked or already on the path. Inflated obstacles are thicker
+//!   than the paper's one-cell ones, so when all eight are blocked the next rings out are tried
+//!   (up to the gap's size) before the individual is discarded (and counted). Every inserted cell
+//!   is strictly closer (Chebyshev) to both genes than they are to each other, so gaps always
+//!   shrink and filling ends. The plain GA fills gaps with a random cell of the gap's
+//!   bounding box instead (random feasible paths).
+//! - Fitness (4.2), smaller is better: `w_l * length + w_s * safety + w_e * energy`; length the
+//!   sum of Euclidean steps (m); safety +5 for each node with a blocked cell in its
+//!   8-neighbourhood (cells outside the map count as blocked: the robot cannot go there either);
+//!   energy, per heading change, the quadrant of the new heading in the frame of the old one:
+//!   first (ahead, a 45 deg turn) +1, second or fourth (a 90 deg turn) +3, third (behind: 135 or
+//!   180 deg) +10, no turn 0. Weights 1.0 / 0.5 / 0.5 (ALGORITHMS.md: lost from the text).
+//! - Layered selection (4.3.1): sorted by fitness, three layers of `N / 3`; the first copied
+//!   twice, the second once, the rest filled from the best of the third. The plain GA uses
+//!   roulette selection on `1 / fitness`.
+//! - Single-point crossover at a cell both parents share (4.3.2); eight-neighbourhood single-point
+//!   mutation with reconnection by median insertion (4.3.3); loops a splice creates are cut, so
+//!   children stay repeat-free.
+//! - Termination (4.4): `generations`, or `stall_generations` without a better best, or the
+//!   interrupt callback (the best so far comes back).
+//! - The delete operation (4.5) on the best path: on by default for `imga`, off for `ga`.
+
+use crate::config::ParamError;
+use crate::geometry::{Cell, NEIGHBOURS_8};
+use crate::inflation::PlanningGrid;
+use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use rand::seq::{IndexedRandom, SliceRandom};
+use rand::Rng;
+use rustc_hash::{FxHashMap, FxHashSet};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the genetic planners.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GaParams {
+    /// Individuals. Default 30.
+    pub population: usize,
+    /// Generations. Default 50 (paper).
+    pub generations: usize,
+    /// Stop after this many generations without a better best. Default 40 (paper).
+    pub stall_generations: usize,
+    /// Probability that a pair is crossed. Default 0.8.
+    pub crossover_rate: f64,
+    /// Probability that an individual is mutated. Default 0.2.
+    pub mutation_rate: f64,
+    /// Fitness weights of length, safety and energy. Defaults 1.0, 0.5, 0.5.
+    pub weight_length: f64,
+    pub weight_safety: f64,
+    pub weight_energy: f64,
+    /// Attempts per wanted individual before the initial population is accepted as it is.
+    /// Default 10.
+    pub init_attempts: usize,
+    /// Insertions allowed per path, as a multiple of (width + height), before an individual is
+    /// discarded. Default 4.
+    pub insertion_budget_factor: f64,
+}
+
+impl Default for GaParams {
+    fn default() -> Self {
+        Self {
+            population: 30,
+            generations: 50,
+            stall_generations: 40,
+            crossover_rate: 0.8,
+            mutation_rate: 0.2,
+            weight_length: 1.0,
+            weight_safety: 0.5,
+            weight_energy: 0.5,
+            init_attempts: 10,
+            insertion_budget_factor: 4.0,
+        }
+    }
+}
+
+impl GaParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if self.population < 2
+            || self.generations == 0
+            || self.stall_generations == 0
+            || self.init_attempts == 0
+        {
+            return Err(ParamError::new(
+                "genetic.population",
+                "population >= 2; generations, stall_generations, init_attempts >= 1",
+            ));
+        }
+        for (name, v) in [
+            ("genetic.crossover_rate", self.crossover_rate),
+            ("genetic.mutation_rate", self.mutation_rate),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(ParamError::new(name, format!("{v} is outside 0..=1")));
+            }
+        }
+        for (name, v) in [
+            ("genetic.weight_length", self.weight_length),
+            ("genetic.weight_safety", self.weight_safety),
+            ("genetic.weight_energy", self.weight_energy),
+            (
+                "genetic.insertion_budget_factor",
+                self.insertion_budget_factor,
+            ),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ParamError::new(
+                    name,
+                    format!("{v} must be finite and non-negative"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The two genetic planners.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GaVariant {
+    Imga,
+    Ga,
+}
+
+impl GaVariant {
+    pub const ALL: [GaVariant; 2] = [GaVariant::Imga, GaVariant::Ga];
+    pub fn name(self) -> &'static str {
+        match self {
+            GaVariant::Imga => "imga",
+            GaVariant::Ga => "ga",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct GaPlanner {
+    pub variant: GaVariant,
+    pub params: GaParams,
+}
+
+/// The three terms of a path's fitness.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitnessTerms {
+    pub length_m: f64,
+    pub safety: f64,
+    pub energy: f64,
+}
+
+/// Whether two cells are neighbours by A*'s move rule (no corner cutting).
+pub fn adjacent(grid: &PlanningGrid, a: Cell, b: Cell) -> bool {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    if dx.abs() > 1 || dy.abs() > 1 || (dx == 0 && dy == 0) {
+        return false;
+    }
+    dx == 0 || dy == 0 || (grid.is_free(a.offset(dx, 0)) && grid.is_free(a.offset(0, dy)))
+}
+
+/// A chromosome is valid when it runs from `start` to `goal` through free cells, each step to a
+/// neighbour, with no cell twice.
+pub fn is_valid(grid: &PlanningGrid, path: &[Cell], start: Cell, goal: Cell) -> bool {
+    let mut seen = FxHashSet::default();
+    path.first() == Some(&start)
+        && path.last() == Some(&goal)
+        && path.iter().all(|&c| grid.is_free(c) && seen.insert(c))
+        && path.windows(2).all(|w| adjacent(grid, w[0], w[1]))
+}
+
+/// Energy penalty of one heading change between two 8-connected steps: the turn in 45 degree
+/// steps (0 to 4) read as the quadrant of the new heading in the old one's frame.
+pub fn turn_penalty(from: (i32, i32), to: (i32, i32)) -> f64 {
+    // Direction index counter-clockwise from +x, in 45 degree steps.
+    let index = |d: (i32, i32)| -> i32 {
+        match (d.0.signum(), d.1.signum()) {
+            (1, 0) => 0,
+            (1, 1) => 1,
+            (0, 1) => 2,
+            (-1, 1) => 3,
+            (-1, 0) => 4,
+            (-1, -1) => 5,
+            (0, -1) => 6,
+            _ => 7,
+        }
+    };
+    let diff = (index(to) - index(from)).rem_euclid(8);
+    match diff.min(8 - diff) {
+        0 => 0.0,
+        1 => 1.0,
+        2 => 3.0,
+        _ => 10.0,
+    }
+}
+
+/// The fitness terms of a cell path (4.2).
+pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell]) -> FitnessTerms {
+    let res = grid.resolution();
+    let length_m = path
+        .windows(2)
+        .map(|w| (w[1].center() - w[0].center()).norm())
+        .sum::<f64>()
+        * res;
+    let safety = path
+        .iter()
+        .filter(|c| {
+            NEIGHBOURS_8
+                .iter()
+                .any(|&(dx, dy)| !grid.is_free(c.offset(dx, dy)))
+        })
+        .count() as f64
+        * 5.0;
+    let dirs: Vec<(i32, i32)> = path
+        .windows(2)
+        .map(|w| (w[1].x - w[0].x, w[1].y - w[0].y))
+        .collect();
+    let energy = dirs.windows(2).map(|d| turn_penalty(d[0], d[1])).sum();
+    FitnessTerms {
+        length_m,
+        safety,
+        energy,
+    }
+}
+
+impl GaParams {
+    fn fitness(&self, t: &FitnessTerms) -> f64 {
+        self.weight_length * t.length_m
+            + self.weight_safety * t.safety
+            + self.weight_energy * t.energy
+    }
+}
+
+/// Layered selection (4.3.1): indices into a population sorted best first (ascending fitness).
+/// The first `N / 3` are taken twice, the next `N / 3` once, and the rest of the `N` places go to
+/// the best of the remaining layer.
+pub fn layered_selection(n: usize) -> Vec<usize> {
+    let third = n / 3;
+    let mut out = Vec::with_capacity(n);
+    for i in 0..third {
+        out.push(i);
+        out.push(i);
+    }
+    out.extend(third..2 * third);
+    let mut k = 2 * third;
+    while out.len() < n {
+        out.push(k);
+        k += 1;
+    }
+    out
+}
+
+/// Cuts every loop (a cell met twice keeps only its first visit) so a spliced path stays
+/// repeat-free; the path stays continuous because the cell after the cut follows the repeat.
+pub fn remove_loops(path: &mut Vec<Cell>) {
+    let mut out: Vec<Cell> = Vec::with_capacity(path.len());
+    let mut pos = FxHashMap::with_capacity_and_hasher(path.len(), Default::default());
+    for &c in path.iter() {
+        if let Some(&i) = pos.get(&c) {
+            for removed in out.drain(i + 1..) {
+                pos.remove(&removed);
+            }
+        } else {
+            pos.insert(c, out.len());
+            out.push(c);
+        }
+    }
+    *path = out;
+}
+
+/// Fills every gap of a gene sequence (4.1): median insertion for IMGA, random insertion for
+/// the plain GA. `None` when the individual cannot be completed.
+fn connect(
+    grid: &PlanningGrid,
+    mut path: Vec<Cell>,
+    median: bool,
+    budget: usize,
+    rng: &mut impl Rng,
+) -> Option<Vec<Cell>> {
+    // Random gap filling makes far longer paths than the median: give it room.
+    let budget = if median { budget } else { budget * 4 };
+    let mut on_path: FxHashSet<Cell> = path.iter().copied().collect();
+    let mut insertions = 0;
+    let mut i = 0;
+    while i + 1 < path.len() {
+        let (a, b) = (path[i], path[i + 1]);
+        if adjacent(grid, a, b) {
+            i += 1;
+            continue;
+        }
+        insertions += 1;
+        if insertions > budget {
+            return None;
+        }
+        // Neighbours by distance but not by move rule (a blocked corner): go round by a free side.
+        if (b.x - a.x).abs() <= 1 && (b.y - a.y).abs() <= 1 {
+            let side = [a.offset(b.x - a.x, 0), a.offset(0, b.y - a.y)]
+                .into_iter()
+                .find(|&s| grid.is_free(s) && !on_path.contains(&s))?;
+            path.insert(i + 1, side);
+            on_path.insert(side);
+            continue;
+        }
+        let target = if median {
+            // Eq. 3: the median cell of the two genes.
+            Cell::new((a.x + b.x).div_euclid(2), (a.y + b.y).div_euclid(2))
+        } else {
+            Cell::new(
+                rng.random_range(a.x.min(b.x)..=a.x.max(b.x)),
+                rng.random_range(a.y.min(b.y)..=a.y.max(b.y)),
+            )
+        };
+        // Only cells strictly closer (Chebyshev) to both genes than they are to each other: every
+        // insertion shrinks its gaps, so filling always ends.
+        let cheb = |p: Cell, q: Cell| (p.x - q.x).abs().max((p.y - q.y).abs());
+        let gap = cheb(a, b);
+        let ok = |c: Cell| {
+            grid.is_free(c) && !on_path.contains(&c) && cheb(a, c) < gap && cheb(c, b) < gap
+        };
+        let chosen = if ok(target) {
+            target
+        } else {
+            // The paper's random free 8-neighbour, then (inflated obstacles are thick) the next
+            // rings out, up to the gap's own size.
+            let reach = (b.x - a.x).abs().max((b.y - a.y).abs()).max(1);
+            (1..=reach).find_map(|r| {
+                let ring: Vec<Cell> = (-r..=r)
+                    .flat_map(|dy| (-r..=r).map(move |dx| (dx, dy)))
+                    .filter(|&(dx, dy)| dx.abs() == r || dy.abs() == r)
+                    .map(|(dx, dy)| target.offset(dx, dy))
+                    .filter(|&c| ok(c))
+                    .collect();
+                ring.get(rng.random_range(0..ring.len().max(1))).copied()
+            })?
+        };
+        path.insert(i + 1, chosen);
+        on_path.insert(chosen);
+    }
+    remove_loops(&mut path);
+    Some(path)
+}
+
+impl Planner for GaPlanner {
+    fn name(&self) -> &'static str {
+        self.variant.name()
+    }
+
+    fn smooth_by_default(&self) -> bool {
+        self.variant == GaVariant::Imga
+    }
+
+    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
+        let grid = problem.grid;
+        let p = &self.params;
+        let (s, g) = (problem.start, problem.goal);
+        let median = self.variant == GaVariant::Imga;
+        let budget =
+            (p.insertion_budget_factor * (grid.width() + grid.height()) as f64) as usize + 8;
+        let mut stats = PlanStats::default();
+        let free: Vec<Cell> = {
+            let info = grid.info();
+            (0..info.cell_count())
+                .map(|i| info.cell_at(i))
+                .filter(|&c| grid.is_free(c) && c != s && c != g)
+                .collect()
+        };
+        // 4.1: the initial population.
+        let mut pop: Vec<Vec<Cell>> = Vec::with_capacity(p.population);
+        let mut discarded = 0u64;
+        for _ in 0..p.population * p.init_attempts {
+            if pop.len() == p.population {
+                break;
+            }
+            let genes = match free.choose(ctx.rng) {
+                Some(&r) => vec![s, r, g],
+                None => vec![s, g],
+            };
+            match connect(grid, genes, median, budget, ctx.rng) {
+                Some(path) if !pop.contains(&path) => pop.push(path),
+                Some(_) => {}
+                None => discarded += 1,
+            }
+        }
+        stats
+            .counters
+            .insert("discarded_individuals".into(), discarded as f64);
+        if pop.is_empty() {
+            return Err(PlanError::NoValidPath(format!(
+                "no initial path could be completed ({discarded} discarded)"
+            )));
+        }
+        let score = |path: &Vec<Cell>| p.fitness(&fitness_terms(grid, path));
+        let mut scored: Vec<(f64, Vec<Cell>)> = pop.into_iter().map(|c| (score(&c), c)).collect();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best = scored[0].clone();
+        let mut stall = 0;
+        for gen in 0..p.generations {
+            if (ctx.interrupt)().is_some() {
+                stats.cut_short = true;
+                break;
+            }
+            stats.iterations += 1;
+            let n = scored.len();
+            // Selection.
+            let mut next: Vec<Vec<Cell>> = match self.variant {
+                GaVariant::Imga => layered_selection(n)
+                    .into_iter()
+                    .map(|i| scored[i].1.clone())
+                    .collect(),
+                GaVariant::Ga => {
+                    let weights: Vec<f64> = scored.iter().map(|(f, _)| 1.0 / f.max(1e-9)).collect();
+                    let total: f64 = weights.iter().sum();
+                    (0..n)
+                        .map(|_| {
+                            let mut r = ctx.rng.random::<f64>() * total;
+                            let k = weights.iter().position(|&w| {
+                                r -= w;
+                                r < 0.0
+                            });
+                            scored[k.unwrap_or(n - 1)].1.clone()
+                        })
+                        .collect()
+                }
+            };
+            // Crossover at a shared cell.
+            next.shuffle(ctx.rng);
+            for pair in next.chunks_exact_mut(2) {
+                if ctx.rng.random::<f64>() < p.crossover_rate {
+                    if let [a, b] = pair {
+                        crossover(a, b, ctx.rng);
+                    }
+                }
+            }
+            // Mutation.
+            for child in next.iter_mut() {
+                if ctx.rng.random::<f64>() < p.mutation_rate {
+                    if let Some(m) = mutate(grid, child, median, budget, ctx.rng) {
+                        *child = m;
+                    } else {
+                        stats
+                            .counters
+                            .entry("failed_mutations".into())
+                            .and_modify(|v| *v += 1.0)
+                            .or_insert(1.0);
+                    }
+                }
+            }
+            scored = next.into_iter().map(|c| (score(&c), c)).collect();
+            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            stats.evaluations += scored.len() as u64;
+            if scored[0].0 < best.0 - 1e-12 {
+                best = scored[0].clone();
+                stats.best_iteration = Some(gen as u64 + 1);
+                stall = 0;
+            } else {
+                stall += 1;
+            }
+            stats.convergence.push(best.0);
+            if stall >= p.stall_generations {
+                stats.notes.push(format!(
+                    "stopped: no better path for {} generations",
+                    p.stall_generations
+                ));
+                break;
+            }
+        }
+        let terms = fitness_terms(grid, &best.1);
+        stats.counters.insert("fitness".into(), best.0);
+        stats
+            .counters
+            .insert("fitness_length_m".into(), terms.length_m);
+        stats.counters.insert("fitness_safety".into(), terms.safety);
+        stats.counters.insert("fitness_energy".into(), terms.energy);
+        Ok(RawPlan {
+            waypoints: best.1.iter().map(|c| c.center()).collect(),
+            stats,
+            pareto: Vec::new(),
+        })
+    }
+}
+
+/// Single-point crossover (4.3.2) at a random cell both parents share (not the start or goal).
+/// Returns whether it happened; children have their loops cut.
+pub fn crossover(a: &mut Vec<Cell>, b: &mut Vec<Cell>, rng: &mut impl Rng) -> bool {
+    let inner_b: FxHashMap<Cell, usize> = b
+        .iter()
+        .enumerate()
+        .take(b.len().saturating_sub(1))
+        .skip(1)
+        .map(|(i, &c)| (c, i))
+        .collect();
+    let shared: Vec<(usize, usize)> = a
+        .iter()
+        .enumerate()
+        .take(a.len().saturating_sub(1))
+        .skip(1)
+        .filter_map(|(i, c)| inner_b.get(c).map(|&j| (i, j)))
+        .collect();
+    let Some(&(i, j)) = shared.get(rng.random_range(0..shared.len().max(1))) else {
+        return false;
+    };
+    let tail_a = a.split_off(i);
+    let tail_b = b.split_off(j);
+    a.extend(tail_b);
+    b.extend(tail_a);
+    remove_loops(a);
+    remove_loops(b);
+    true
+}
+
+/// Eight-neighbourhood single-point mutation (4.3.3): a random inner gene moves to a random free
+/// 8-neighbour not already on the path, and the path is reconnected by insertion. `None` when no
+/// neighbour is free or the reconnection fails (the mutation is skipped).
+pub fn mutate(
+    grid: &PlanningGrid,
+    path: &[Cell],
+    median: bool,
+    budget: usize,
+    rng: &mut impl Rng,
+) -> Option<Vec<Cell>> {
+    if path.len() < 3 {
+        return None;
+    }
+    let i = rng.random_range(1..path.len() - 1);
+    let options: Vec<Cell> = NEIGHBOURS_8
+        .iter()
+        .map(|&(dx, dy)| path[i].offset(dx, dy))
+        .filter(|&c| grid.is_free(c) && !path.contains(&c))
+        .collect();
+    let &m = options.get(rng.random_range(0..options.len().max(1)))?;
+    let mut genes = path.to_vec();
+    genes[i] = m;
+    connect(grid, genes, median, budget, rng)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::{grid_from_rows, random_grid, rng};
+    use proptest::prelude::{any, prop_assert, prop_assert_eq, proptest, ProptestConfig};
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Median insertion always yields continuous, repeat-free, obstacle-free paths (or
+        /// discards the individual).
+        #[test]
+        fn median_insertion_yields_valid_paths(seed in any::<u64>(), density in 0.0f64..0.3) {
+            let (grid, s, g) = random_grid(seed, 20, 15, density);
+            let mut r = rng(seed);
+            for _ in 0..10 {
+                let mid = Cell::new(r.random_range(0..20), r.random_range(0..15));
+                if !grid.is_free(mid) || mid == s || mid == g { continue; }
+                if let Some(path) = connect(&grid, vec![s, mid, g], true, 200, &mut r) {
+                    prop_assert!(is_valid(&grid, &path, s, g), "{:?}", path);
+                }
+            }
+        }
+
+        /// Crossover happens only at shared cells and its children stay valid; mutation keeps
+        /// validity or reports failure.
+        #[test]
+        fn crossover_and_mutation_keep_paths_valid(seed in any::<u64>(), density in 0.0f64..0.25) {
+            let (grid, s, g) = random_grid(seed, 16, 12, density);
+            let mut r = rng(seed);
+            let mut parents = Vec::new();
+            for _ in 0..20 {
+                let mid = Cell::new(r.random_range(0..16), r.random_range(0..12));
+                if grid.is_free(mid) && mid != s && mid != g {
+                    if let Some(p) = connect(&grid, vec![s, mid, g], true, 200, &mut r) { parents.push(p); }
+                }
+            }
+            for pair in parents.chunks_exact(2) {
+                let (mut a, mut b) = (pair[0].clone(), pair[1].clone());
+                let shared = pair[0][1..pair[0].len() - 1].iter().any(|c| pair[1][1..pair[1].len() - 1].contains(c));
+                let crossed = crossover(&mut a, &mut b, &mut r);
+                prop_assert_eq!(crossed, shared);
+                if !crossed { prop_assert_eq!(&a, &pair[0]); }
+                prop_assert!(is_valid(&grid, &a, s, g) && is_valid(&grid, &b, s, g));
+                if let Some(m) = mutate(&grid, &a, true, 200, &mut r) {
+                    prop_assert!(is_valid(&grid, &m, s, g));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn quadrant_penalties_on_hand_made_turns() {
+        assert_eq!(turn_penalty((1, 0), (1, 0)), 0.0); // straight on
+        assert_eq!(turn_penalty((1, 0), (1, 1)), 1.0); // 45 deg: first quadrant
+        assert_eq!(turn_penalty((1, 0), (1, -1)), 1.0);
+        assert_eq!(turn_penalty((1, 0), (0, 1)), 3.0); // 90 deg: second or fourth quadrant
+        assert_eq!(turn_penalty((1, 1), (-1, 1)), 3.0);
+        assert_eq!(turn_penalty((0, 1), (1, 0)), 3.0);
+        assert_eq!(turn_penalty((1, 0), (-1, 1)), 10.0); // 135 deg: third quadrant
+        assert_eq!(turn_penalty((1, 0), (-1, 0)), 10.0); // U-turn
+    }
+
+    #[test]
+    fn safety_term_on_a_hand_made_neighbourhood() {
+        // One obstacle at (3, 2); of the path (1,1) .. (5,1), the nodes (2,1), (3,1), (4,1) are
+        // next to it: 3 nodes x 5. (The path keeps off the map's edge, which counts as blocked.)
+        let grid = grid_from_rows(&[".......", ".......", "...#...", ".......", "......."]);
+        let path: Vec<Cell> = (1..6).map(|x| Cell::new(x, 1)).collect();
+        let t = fitness_terms(&grid, &path);
+        assert_eq!(t.safety, 15.0);
+        assert_eq!(t.energy, 0.0);
+        assert!((t.length_m - 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn layered_selection_copy_counts_for_9_and_10() {
+        let count = |sel: &[usize], i: usize| sel.iter().filter(|&&k| k == i).count();
+        let nine = layered_selection(9);
+        assert_eq!(nine.len(), 9);
+        assert!((0..3).all(|i| count(&nine, i) == 2));
+        assert!((3..6).all(|i| count(&nine, i) == 1));
+        assert!((6..9).all(|i| count(&nine, i) == 0));
+        let ten = layered_selection(10);
+        assert_eq!(ten.len(), 10);
+        assert!((0..3).all(|i| count(&ten, i) == 2));
+        assert!((3..6).all(|i| count(&ten, i) == 1));
+        // The last place goes to the best of the third layer (index 6), none to the rest.
+        assert_eq!(count(&ten, 6), 1);
+        assert!((7..10).all(|i| count(&ten, i) == 0));
+    }
+
+    #[test]
+    fn both_planners_find_valid_paths_deterministically() {
+        use crate::planner::{solve, Query, SolveOptions};
+        let grid = grid_from_rows(&[
+            "..........",
+            "...####...",
+            "......#...",
+            "......#...",
+            "..........",
+        ]);
+        let q = Query {
+            start: Cell::new(0, 0).center(),
+            goal: Cell::new(9, 4).center(),
+            tolerance: 0.0,
+        };
+        for variant in GaVariant::ALL {
+            let planner = GaPlanner {
+                variant,
+                params: GaParams::default(),
+            };
+            let run = |seed| {
+                let mut r = rng(seed);
+                solve(
+                    &planner,
+                    &grid,
+                    &q,
+                    SolveOptions::default(),
+                    &mut PlanContext::never_interrupted(&mut r),
+                )
+                .unwrap()
+            };
+            let plan = run(5);
+            assert!(plan.metrics.collision_free, "{}", variant.name());
+            assert_eq!(
+                plan.waypoints,
+                run(5).waypoints,
+                "{}: same seed, same path",
+                variant.name()
+            );
+        }
+    }
+}
