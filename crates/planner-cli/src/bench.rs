@@ -10,13 +10,29 @@ use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+/// `patrol-plan bench`'s arguments.
+#[derive(clap::Args)]
 pub struct BenchArgs {
+    /// `*.scen.yaml` files (e.g. ../shared/maps/bench/datacenter_100.scen.yaml).
+    #[arg(long, num_args = 1.., required = true)]
     pub scenarios: Vec<PathBuf>,
+    /// Comma-separated planner names.
+    #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
     pub planners: Vec<String>,
+    /// Runs per planner and scenario (seeds 0..runs-1).
+    #[arg(long, default_value_t = 5)]
     pub runs: u64,
+    /// Only these scenario names (comma-separated); default all.
+    #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
+    /// Write the rows as a JSON array here (default: print JSON to stdout).
+    #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the same table as Markdown here.
+    #[arg(long)]
     pub markdown: Option<PathBuf>,
+    /// Parameter file in the node's layout (`patrol_planner: ros__parameters:`).
+    #[arg(long)]
     pub config: Option<PathBuf>,
 }
 

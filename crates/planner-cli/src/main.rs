@@ -84,28 +84,7 @@ enum Command {
     /// Run each planner R times (seeds 0..R-1) on every scenario of the given bench scenario files
     /// and write a table: one row per map x scenario x planner, lengths also as ratios to the
     /// any-angle reference and times as ratios to A* measured in the same run.
-    Bench {
-        /// `*.scen.yaml` files (e.g. ../shared/maps/bench/datacenter_100.scen.yaml).
-        #[arg(long, num_args = 1.., required = true)]
-        scenarios: Vec<PathBuf>,
-        /// Comma-separated planner names.
-        #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
-        planners: Vec<String>,
-        /// Runs per planner and scenario (seeds 0..runs-1).
-        #[arg(long, default_value_t = 5)]
-        runs: u64,
-        /// Only these scenario names (comma-separated); default all.
-        #[arg(long, value_delimiter = ',')]
-        only: Vec<String>,
-        /// Write the rows as a JSON array here (default: print JSON to stdout).
-        #[arg(long)]
-        json: Option<PathBuf>,
-        /// Write the same table as Markdown here.
-        #[arg(long)]
-        markdown: Option<PathBuf>,
-        #[command(flatten)]
-        common: Common,
-    },
+    Bench(bench::BenchArgs),
     /// Draw a map with the paths of several planners as SVG, so a person can check them by eye.
     Render {
         #[command(flatten)]
@@ -151,23 +130,7 @@ fn run(cli: Cli) -> Result<()> {
             let failed = movingai::run(&map, &scen)?;
             std::process::exit(if failed > 0 { 1 } else { 0 })
         }
-        Command::Bench {
-            scenarios,
-            planners,
-            runs,
-            only,
-            json,
-            markdown,
-            common,
-        } => bench::run(&bench::BenchArgs {
-            scenarios,
-            planners,
-            runs,
-            only,
-            json,
-            markdown,
-            config: common.config,
-        }),
+        Command::Bench(args) => bench::run(&args),
         Command::Render {
             request: r,
             planners,

@@ -29,7 +29,7 @@
 //!   the goal (the swarms' rule; the result says so); it seeds the best-so-far ant.
 
 use crate::astar::astar_cells;
-use crate::config::ParamError;
+use crate::config::{check, check_counts, ParamError, Range};
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
 use crate::inflation::PlanningGrid;
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
@@ -92,46 +92,36 @@ impl Default for ColonyParams {
 
 impl ColonyParams {
     pub fn validate(&self) -> Result<(), ParamError> {
-        if self.ants == 0 || self.iterations == 0 || self.patience == 0 {
-            return Err(ParamError::new(
-                "colony.ants",
-                "ants, iterations and patience must be at least 1",
-            ));
-        }
-        let open_unit = [
-            ("colony.rho", self.rho),
-            ("colony.phi", self.phi),
-            ("colony.omega", self.omega),
-        ];
-        for (name, v) in open_unit {
-            if !(v > 0.0 && v < 1.0) {
-                return Err(ParamError::new(name, format!("{v} is outside (0, 1)")));
-            }
-        }
-        let positive = [
-            ("colony.delta", self.delta),
-            ("colony.initial_pheromone", self.initial_pheromone),
-            ("colony.band", self.band),
-            ("colony.tau_min", self.tau_min),
-            ("colony.step_budget_factor", self.step_budget_factor),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(ParamError::new(
-                    name,
-                    format!("{v} must be finite and positive"),
-                ));
-            }
-        }
-        for (name, v) in [("colony.alpha", self.alpha), ("colony.beta", self.beta)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(ParamError::new(
-                    name,
-                    format!("{v} must be finite and non-negative"),
-                ));
-            }
-        }
-        Ok(())
+        check_counts(
+            1,
+            &[
+                ("colony.ants", self.ants),
+                ("colony.iterations", self.iterations),
+                ("colony.patience", self.patience),
+            ],
+        )?;
+        check(
+            Range::OpenUnit,
+            &[
+                ("colony.rho", self.rho),
+                ("colony.phi", self.phi),
+                ("colony.omega", self.omega),
+            ],
+        )?;
+        check(
+            Range::Positive,
+            &[
+                ("colony.delta", self.delta),
+                ("colony.initial_pheromone", self.initial_pheromone),
+                ("colony.band", self.band),
+                ("colony.tau_min", self.tau_min),
+                ("colony.step_budget_factor", self.step_budget_factor),
+            ],
+        )?;
+        check(
+            Range::NonNegative,
+            &[("colony.alpha", self.alpha), ("colony.beta", self.beta)],
+        )
     }
 }
 
@@ -562,25 +552,20 @@ mod tests {
                 },
                 apf: ApfParams::default(),
             };
-            let mut r = rng(3);
-            let plan = solve(
-                &planner,
-                &grid,
-                &q,
-                SolveOptions::default(),
-                &mut PlanContext::never_interrupted(&mut r),
-            )
-            .unwrap();
+            let run = |seed| {
+                let mut r = rng(seed);
+                solve(
+                    &planner,
+                    &grid,
+                    &q,
+                    SolveOptions::default(),
+                    &mut PlanContext::never_interrupted(&mut r),
+                )
+                .unwrap()
+            };
+            let plan = run(3);
             assert!(plan.metrics.collision_free, "{}", variant.name());
-            let mut r = rng(3);
-            let again = solve(
-                &planner,
-                &grid,
-                &q,
-                SolveOptions::default(),
-                &mut PlanContext::never_interrupted(&mut r),
-            )
-            .unwrap();
+            let again = run(3);
             assert_eq!(
                 plan.waypoints,
                 again.waypoints,

@@ -28,6 +28,63 @@ impl ParamError {
     }
 }
 
+/// The range a numeric parameter must lie in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Range {
+    /// Finite and >= 0.
+    NonNegative,
+    /// Finite and > 0.
+    Positive,
+    /// In 0..=1.
+    Share,
+    /// In the open interval (0, 1).
+    OpenUnit,
+    /// Finite and greater than the bound.
+    Above(f64),
+}
+
+impl Range {
+    fn holds(self, v: f64) -> bool {
+        match self {
+            Range::NonNegative => v.is_finite() && v >= 0.0,
+            Range::Positive => v.is_finite() && v > 0.0,
+            Range::Share => (0.0..=1.0).contains(&v),
+            Range::OpenUnit => v > 0.0 && v < 1.0,
+            Range::Above(b) => v.is_finite() && v > b,
+        }
+    }
+
+    fn describe(self) -> String {
+        match self {
+            Range::NonNegative => "a finite non-negative number".into(),
+            Range::Positive => "a finite positive number".into(),
+            Range::Share => "within 0..=1".into(),
+            Range::OpenUnit => "strictly between 0 and 1".into(),
+            Range::Above(b) => format!("a finite number above {b}"),
+        }
+    }
+}
+
+/// Checks every `(name, value)` against `range`; the error names the first one out of it. The
+/// one place that says what a valid number is, for every parameter section.
+pub(crate) fn check(range: Range, params: &[(&str, f64)]) -> Result<(), ParamError> {
+    match params.iter().find(|(_, v)| !range.holds(*v)) {
+        Some((name, v)) => Err(ParamError::new(
+            *name,
+            format!("{v} is not {}", range.describe()),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Checks that every `(name, count)` is at least `min`.
+pub(crate) fn check_counts(min: usize, params: &[(&str, usize)]) -> Result<(), ParamError> {
+    match params.iter().find(|(_, v)| *v < min) {
+        Some((name, v)) => Err(ParamError::new(*name, format!("{v} is less than {min}"))),
+        None => Ok(()),
+    }
+}
+
 /// Everything needed to build and run a planner.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -86,21 +143,13 @@ impl Default for PlannerConfig {
 impl PlannerConfig {
     pub fn validate(&self) -> Result<(), ParamError> {
         crate::registry::check_name(&self.planner)?;
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(ParamError::new(
-                "tolerance",
-                format!("{} is not a finite non-negative distance", self.tolerance),
-            ));
-        }
-        if !(self.max_planning_time.is_finite() && self.max_planning_time >= 0.0) {
-            return Err(ParamError::new(
-                "max_planning_time",
-                format!(
-                    "{} is not a finite non-negative time",
-                    self.max_planning_time
-                ),
-            ));
-        }
+        check(
+            Range::NonNegative,
+            &[
+                ("tolerance", self.tolerance),
+                ("max_planning_time", self.max_planning_time),
+            ],
+        )?;
         self.costmap.validate()?;
         self.apf.validate()?;
         self.swarm.validate()?;

@@ -28,7 +28,7 @@
 //!   interrupt callback (the best so far comes back).
 //! - The delete operation (4.5) on the best path: on by default for `imga`, off for `ga`.
 
-use crate::config::ParamError;
+use crate::config::{check, check_counts, ParamError, Range};
 use crate::geometry::{Cell, NEIGHBOURS_8};
 use crate::inflation::PlanningGrid;
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
@@ -82,41 +82,34 @@ impl Default for GaParams {
 
 impl GaParams {
     pub fn validate(&self) -> Result<(), ParamError> {
-        if self.population < 2
-            || self.generations == 0
-            || self.stall_generations == 0
-            || self.init_attempts == 0
-        {
-            return Err(ParamError::new(
-                "genetic.population",
-                "population >= 2; generations, stall_generations, init_attempts >= 1",
-            ));
-        }
-        for (name, v) in [
-            ("genetic.crossover_rate", self.crossover_rate),
-            ("genetic.mutation_rate", self.mutation_rate),
-        ] {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(ParamError::new(name, format!("{v} is outside 0..=1")));
-            }
-        }
-        for (name, v) in [
-            ("genetic.weight_length", self.weight_length),
-            ("genetic.weight_safety", self.weight_safety),
-            ("genetic.weight_energy", self.weight_energy),
-            (
-                "genetic.insertion_budget_factor",
-                self.insertion_budget_factor,
-            ),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(ParamError::new(
-                    name,
-                    format!("{v} must be finite and non-negative"),
-                ));
-            }
-        }
-        Ok(())
+        check_counts(2, &[("genetic.population", self.population)])?;
+        check_counts(
+            1,
+            &[
+                ("genetic.generations", self.generations),
+                ("genetic.stall_generations", self.stall_generations),
+                ("genetic.init_attempts", self.init_attempts),
+            ],
+        )?;
+        check(
+            Range::Share,
+            &[
+                ("genetic.crossover_rate", self.crossover_rate),
+                ("genetic.mutation_rate", self.mutation_rate),
+            ],
+        )?;
+        check(
+            Range::NonNegative,
+            &[
+                ("genetic.weight_length", self.weight_length),
+                ("genetic.weight_safety", self.weight_safety),
+                ("genetic.weight_energy", self.weight_energy),
+                (
+                    "genetic.insertion_budget_factor",
+                    self.insertion_budget_factor,
+                ),
+            ],
+        )
     }
 }
 

@@ -9,7 +9,7 @@
 //! Distances are measured between cell centres, as Nav2's costmap inflation does: a cell is
 //! blocked when an obstacle cell's centre lies within `robot_radius + safety_margin` of its centre.
 
-use crate::config::ParamError;
+use crate::config::{check, ParamError, Range};
 use crate::geometry::Cell;
 use crate::grid::{GridMap, MapInfo, UNKNOWN};
 use serde::{Deserialize, Serialize};
@@ -65,21 +65,21 @@ impl InflationConfig {
     }
 
     pub fn validate(&self) -> Result<(), ParamError> {
-        for (name, v) in [
-            ("robot_radius", self.robot_radius),
-            ("safety_margin", self.safety_margin),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(ParamError::new(
-                    name,
-                    format!("{v} is not a finite non-negative distance"),
-                ));
-            }
-        }
-        if !(0..=100).contains(&self.occupied_threshold) {
+        check(
+            Range::NonNegative,
+            &[
+                ("robot_radius", self.robot_radius),
+                ("safety_margin", self.safety_margin),
+            ],
+        )?;
+        check(
+            Range::NonNegative,
+            &[("occupied_threshold", self.occupied_threshold as f64)],
+        )?;
+        if self.occupied_threshold > 100 {
             return Err(ParamError::new(
                 "occupied_threshold",
-                format!("{} is outside 0..=100", self.occupied_threshold),
+                format!("{} is above 100", self.occupied_threshold),
             ));
         }
         Ok(())

@@ -84,45 +84,31 @@ impl Default for ApfParams {
 
 impl ApfParams {
     pub fn validate(&self) -> Result<(), crate::config::ParamError> {
-        use crate::config::ParamError;
-        let positive = [
-            ("apf.attractive_gain", self.attractive_gain),
-            ("apf.influence_distance", self.influence_distance),
-            ("apf.chassis_radius", self.chassis_radius),
-            ("apf.traction_radius", self.traction_radius),
-            ("apf.traction_distance", self.traction_distance),
-            ("apf.sweep_step_deg", self.sweep_step_deg),
-            ("apf.step_budget_factor", self.step_budget_factor),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(ParamError::new(
-                    name,
-                    format!("{v} must be finite and positive"),
-                ));
-            }
-        }
-        if !(self.repulsive_gain.is_finite() && self.repulsive_gain >= 0.0) {
-            return Err(ParamError::new(
-                "apf.repulsive_gain",
-                "must be finite and non-negative",
-            ));
-        }
-        if !(self.traction_growth.is_finite() && self.traction_growth > 1.0) {
-            return Err(ParamError::new(
-                "apf.traction_growth",
-                "must be finite and greater than 1",
-            ));
-        }
-        if self.stall_window == 0
-            || !(self.stall_distance.is_finite() && self.stall_distance >= 0.0)
-        {
-            return Err(ParamError::new(
-                "apf.stall_window",
-                "the window must be at least one step, the distance finite",
-            ));
-        }
-        Ok(())
+        use crate::config::{check, check_counts, Range};
+        check(
+            Range::Positive,
+            &[
+                ("apf.attractive_gain", self.attractive_gain),
+                ("apf.influence_distance", self.influence_distance),
+                ("apf.chassis_radius", self.chassis_radius),
+                ("apf.traction_radius", self.traction_radius),
+                ("apf.traction_distance", self.traction_distance),
+                ("apf.sweep_step_deg", self.sweep_step_deg),
+                ("apf.step_budget_factor", self.step_budget_factor),
+            ],
+        )?;
+        check(
+            Range::NonNegative,
+            &[
+                ("apf.repulsive_gain", self.repulsive_gain),
+                ("apf.stall_distance", self.stall_distance),
+            ],
+        )?;
+        check(
+            Range::Above(1.0),
+            &[("apf.traction_growth", self.traction_growth)],
+        )?;
+        check_counts(1, &[("apf.stall_window", self.stall_window)])
     }
 }
 

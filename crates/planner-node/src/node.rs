@@ -404,15 +404,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
             )
             .await;
             let plan = match &outcome.result {
-                Ok((plan, goal_yaw)) => {
-                    let spacing = s
-                        .map
-                        .read()
-                        .expect("lock")
-                        .as_ref()
-                        .map_or(0.05, |m| m.map.info().resolution);
-                    convert::path_msg(&plan.waypoints, *goal_yaw, spacing, o.header(&s))
-                }
+                Ok((plan, goal_yaw)) => o.path(&s, plan, *goal_yaw),
                 Err(f) => {
                     warn!("make_plan failed: {}: {}", f.code, f.message);
                     Path {
@@ -620,16 +612,21 @@ impl Outputs {
         }
     }
 
+    /// A plan as nav_msgs/Path, densified at the current map's resolution.
+    fn path(&self, s: &Shared, plan: &Plan, goal_yaw: f64) -> Path {
+        let spacing = s
+            .map
+            .read()
+            .expect("lock")
+            .as_ref()
+            .map_or(0.05, |m| m.map.info().resolution);
+        convert::path_msg(&plan.waypoints, goal_yaw, spacing, self.header(s))
+    }
+
     /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`.
     async fn publish(&self, s: &Shared, outcome: &Outcome) {
         if let Ok((plan, goal_yaw)) = &outcome.result {
-            let spacing = s
-                .map
-                .read()
-                .expect("lock")
-                .as_ref()
-                .map_or(0.05, |m| m.map.info().resolution);
-            let path = convert::path_msg(&plan.waypoints, *goal_yaw, spacing, self.header(s));
+            let path = self.path(s, plan, *goal_yaw);
             if let Err(e) = self.plan.async_publish(path).await {
                 warn!("/plan: {e:?}");
             }

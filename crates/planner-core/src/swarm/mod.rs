@@ -29,7 +29,7 @@ pub mod encoding;
 pub mod pareto;
 
 use crate::astar::astar_cells;
-use crate::config::ParamError;
+use crate::config::{check, check_counts, ParamError, Range};
 use crate::geometry::Point2;
 use crate::inflation::PlanningGrid;
 use crate::metrics::{path_length, total_turning};
@@ -132,47 +132,38 @@ impl Default for SwarmParams {
 
 impl SwarmParams {
     pub fn validate(&self) -> Result<(), ParamError> {
-        let counts = [
-            ("swarm.population", self.population),
-            ("swarm.waypoints", self.waypoints),
-            ("swarm.iterations", self.iterations),
-            ("swarm.smp", self.smp),
-            ("swarm.archive_size", self.archive_size),
-        ];
-        for (name, v) in counts {
-            if v == 0 {
-                return Err(ParamError::new(name, "must be at least 1"));
-            }
-        }
-        let shares = [
-            ("swarm.srd", self.srd),
-            ("swarm.cdc", self.cdc),
-            ("swarm.mr_max", self.mr_max),
-            ("swarm.mr_min", self.mr_min),
-            ("swarm.mr_fixed", self.mr_fixed),
-            ("swarm.length_weight", self.length_weight),
-            ("swarm.init_spread", self.init_spread),
-        ];
-        for (name, v) in shares {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(ParamError::new(name, format!("{v} is outside 0..=1")));
-            }
-        }
-        for (name, v) in [
-            ("swarm.inertia_max", self.inertia_max),
-            ("swarm.inertia_min", self.inertia_min),
-            ("swarm.acceleration", self.acceleration),
-            ("swarm.mopso_inertia", self.mopso_inertia),
-            ("swarm.mopso_acceleration", self.mopso_acceleration),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(ParamError::new(
-                    name,
-                    format!("{v} is not finite and non-negative"),
-                ));
-            }
-        }
-        Ok(())
+        check_counts(
+            1,
+            &[
+                ("swarm.population", self.population),
+                ("swarm.waypoints", self.waypoints),
+                ("swarm.iterations", self.iterations),
+                ("swarm.smp", self.smp),
+                ("swarm.archive_size", self.archive_size),
+            ],
+        )?;
+        check(
+            Range::Share,
+            &[
+                ("swarm.srd", self.srd),
+                ("swarm.cdc", self.cdc),
+                ("swarm.mr_max", self.mr_max),
+                ("swarm.mr_min", self.mr_min),
+                ("swarm.mr_fixed", self.mr_fixed),
+                ("swarm.length_weight", self.length_weight),
+                ("swarm.init_spread", self.init_spread),
+            ],
+        )?;
+        check(
+            Range::NonNegative,
+            &[
+                ("swarm.inertia_max", self.inertia_max),
+                ("swarm.inertia_min", self.inertia_min),
+                ("swarm.acceleration", self.acceleration),
+                ("swarm.mopso_inertia", self.mopso_inertia),
+                ("swarm.mopso_acceleration", self.mopso_acceleration),
+            ],
+        )
     }
 
     /// Eq. 12: the mixture ratio at iteration `t` of `it_max`.
