@@ -336,6 +336,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
             match convert::pose_in_frame(&msg, &s.params.global_frame) {
                 Ok(goal) => {
                     let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
+                    // Fails only when the planning task has ended, i.e. during shutdown.
                     let _ = goal_tx.send(Some((id, goal)));
                 }
                 Err(f) => {
@@ -631,10 +632,13 @@ impl Outputs {
                 warn!("/plan: {e:?}");
             }
             if s.params.publish_pareto && !plan.pareto.is_empty() {
-                let _ = self
+                if let Err(e) = self
                     .pareto
                     .async_publish(convert::pareto_markers(plan, self.header(s)))
-                    .await;
+                    .await
+                {
+                    warn!("/patrol_planner/pareto: {e:?}");
+                }
             }
         }
         self.diagnose(
