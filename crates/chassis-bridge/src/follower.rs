@@ -1,0 +1,241 @@
+//! A path follower: regulated pure pursuit (in the manner of Nav2's RPP controller), for the
+//! dense `/plan` the planner publishes.
+//!
+//! Each tick: advance along the path to the point nearest the robot, pick the first point at
+//! least `lookahead` ahead, and steer on the circle through it (curvature `2 y / L^2` in the
+//! robot's frame). The speed is the limit, regulated down on tight curves (below
+//! `min_turn_radius`) and near the goal (within `approach_distance`), and lowered further so that
+//! the turn rate stays within its limit on the same curve. A lookahead point more than
+//! `rotate_angle` off the heading is turned to in place first. Within `goal_tolerance` of the
+//! last point the robot turns in place to the goal's heading, then reports `Arrived` and stops.
+
+use crate::limits::TwistLimits;
+use crate::sim::Pose;
+use crate::Twist2;
+use serde::{Deserialize, Serialize};
+
+/// Follower parameters (m, rad).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FollowerParams {
+    /// Distance to the carrot point (m). Default 0.6.
+    pub lookahead: f64,
+    /// Position tolerance at the goal (m). Default 0.10.
+    pub goal_tolerance: f64,
+    /// Heading tolerance at the goal (rad). Default 0.10.
+    pub yaw_tolerance: f64,
+    /// Turn in place when the carrot is more than this off the heading (rad). Default 0.8.
+    pub rotate_angle: f64,
+    /// Below this turning radius the speed is scaled down (m). Default 0.5.
+    pub min_turn_radius: f64,
+    /// Within this distance of the goal the speed is scaled down (m). Default 1.0.
+    pub approach_distance: f64,
+    /// The slowest approach speed (m/s). Default 0.05.
+    pub min_approach_speed: f64,
+}
+
+impl Default for FollowerParams {
+    fn default() -> Self {
+        Self {
+            lookahead: 0.6,
+            goal_tolerance: 0.10,
+            yaw_tolerance: 0.10,
+            rotate_angle: 0.8,
+            min_turn_radius: 0.5,
+            approach_distance: 1.0,
+            min_approach_speed: 0.05,
+        }
+    }
+}
+
+/// What the follower is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    Following,
+    /// Turning in place (towards the path, or to the goal's heading).
+    Rotating,
+    /// Within both tolerances: the command is a stop.
+    Arrived,
+}
+
+/// Follows one path.
+#[derive(Clone, Debug)]
+pub struct Follower {
+    params: FollowerParams,
+    path: Vec<(f64, f64)>,
+    goal_yaw: f64,
+    nearest: usize,
+}
+
+fn wrap(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+impl Follower {
+    /// A follower for `path` (at least one point), ending with heading `goal_yaw`.
+    pub fn new(params: FollowerParams, path: Vec<(f64, f64)>, goal_yaw: f64) -> Option<Self> {
+        (!path.is_empty()).then_some(Self {
+            params,
+            path,
+            goal_yaw,
+            nearest: 0,
+        })
+    }
+
+    /// The command for the robot at `pose` under `limits` (speed limits only: the caller applies
+    /// acceleration limits with [`TwistLimits::apply`]).
+    pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
+        let p = self.params;
+        let goal = *self.path.last().expect("non-empty");
+        let dist = |q: (f64, f64)| ((q.0 - pose.x).powi(2) + (q.1 - pose.y).powi(2)).sqrt();
+        let d_goal = dist(goal);
+        if d_goal <= p.goal_tolerance {
+            let err = wrap(self.goal_yaw - pose.yaw);
+            if err.abs() <= p.yaw_tolerance {
+                return (Twist2::STOP, Status::Arrived);
+            }
+            let w = (2.0 * err).clamp(-limits.max_angular, limits.max_angular);
+            return (Twist2::new(0.0, w), Status::Rotating);
+        }
+        // Progress: the nearest point, searching forward only (the path does not go backwards).
+        let window = (self.nearest..self.path.len()).take(200);
+        self.nearest = window
+            .min_by(|&a, &b| dist(self.path[a]).total_cmp(&dist(self.path[b])))
+            .unwrap_or(self.nearest);
+        let carrot = self.path[self.nearest..]
+            .iter()
+            .copied()
+            .find(|&q| dist(q) >= p.lookahead)
+            .unwrap_or(goal);
+        // The carrot in the robot's frame.
+        let (dx, dy) = (carrot.0 - pose.x, carrot.1 - pose.y);
+        let (s, c) = pose.yaw.sin_cos();
+        let (x, y) = (c * dx + s * dy, -s * dx + c * dy);
+        let alpha = y.atan2(x);
+        if alpha.abs() > p.rotate_angle {
+            return (
+                Twist2::new(0.0, limits.max_angular.copysign(alpha)),
+                Status::Rotating,
+            );
+        }
+        let l2 = (x * x + y * y).max(1e-9);
+        let curvature = 2.0 * y / l2;
+        let mut v = limits.max_linear;
+        let radius = 1.0 / curvature.abs().max(1e-9);
+        if radius < p.min_turn_radius {
+            v *= radius / p.min_turn_radius;
+        }
+        if d_goal < p.approach_distance {
+            v = v.min((limits.max_linear * d_goal / p.approach_distance).max(p.min_approach_speed));
+        }
+        // Keep the curve, slow down until the turn rate fits.
+        if (v * curvature).abs() > limits.max_angular {
+            v = limits.max_angular / curvature.abs();
+        }
+        let v = v.clamp(0.0, limits.max_linear);
+        let w = (v * curvature).clamp(-limits.max_angular, limits.max_angular);
+        (Twist2::new(v, w), Status::Following)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::Unicycle;
+    use proptest::prelude::*;
+
+    /// Densifies a polyline to 0.05 m, as the planner's /plan is.
+    fn dense(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {
+        let mut out = Vec::new();
+        for w in pts.windows(2) {
+            let n = ((((w[1].0 - w[0].0).powi(2) + (w[1].1 - w[0].1).powi(2)).sqrt() / 0.05).ceil()
+                as usize)
+                .max(1);
+            out.extend((0..n).map(|k| {
+                let t = k as f64 / n as f64;
+                (
+                    w[0].0 + t * (w[1].0 - w[0].0),
+                    w[0].1 + t * (w[1].1 - w[0].1),
+                )
+            }));
+        }
+        out.push(*pts.last().unwrap());
+        out
+    }
+
+    /// Closes the loop with the simulated chassis: returns the final pose, the steps taken and the
+    /// largest deviation from the path.
+    fn drive(path: &[(f64, f64)], goal_yaw: f64, start: Pose) -> (Pose, usize, f64, Status) {
+        let limits = TwistLimits::default();
+        let mut f = Follower::new(FollowerParams::default(), dense(path), goal_yaw).unwrap();
+        let mut car = Unicycle::new(start);
+        let dt = 0.05;
+        let mut worst: f64 = 0.0;
+        for step in 0..4000 {
+            let (cmd, status) = f.command(&car.pose, &limits);
+            assert!(
+                cmd.linear.abs() <= limits.max_linear + 1e-12
+                    && cmd.angular.abs() <= limits.max_angular + 1e-12
+            );
+            if status == Status::Arrived {
+                return (car.pose, step, worst, status);
+            }
+            let applied = limits.apply(cmd, car.twist, dt);
+            car.step(applied, dt);
+            let off = f
+                .path
+                .iter()
+                .map(|q| ((q.0 - car.pose.x).powi(2) + (q.1 - car.pose.y).powi(2)).sqrt())
+                .fold(f64::INFINITY, f64::min);
+            worst = worst.max(off);
+        }
+        (car.pose, 4000, worst, Status::Following)
+    }
+
+    #[test]
+    fn drives_an_l_shaped_path_to_the_goal_and_stops_within_tolerance() {
+        let path = [(0.0, 0.0), (4.0, 0.0), (4.0, 3.0)];
+        let (pose, steps, worst, status) =
+            drive(&path, std::f64::consts::FRAC_PI_2, Pose::default());
+        assert_eq!(status, Status::Arrived, "did not arrive in 200 s");
+        assert!(((pose.x - 4.0).powi(2) + (pose.y - 3.0).powi(2)).sqrt() <= 0.10);
+        assert!(wrap(pose.yaw - std::f64::consts::FRAC_PI_2).abs() <= 0.10);
+        // Pure pursuit cuts the corner by less than the lookahead.
+        assert!(worst < 0.6, "strayed {worst:.2} m from the path");
+        // 7 m at up to 0.6 m/s plus a turn: well under a minute.
+        assert!((steps as f64) * 0.05 < 60.0);
+    }
+
+    #[test]
+    fn turns_in_place_when_the_path_starts_behind() {
+        let path = [(0.0, 0.0), (-3.0, 0.0)];
+        let mut f = Follower::new(
+            FollowerParams::default(),
+            dense(&path),
+            std::f64::consts::PI,
+        )
+        .unwrap();
+        let (cmd, status) = f.command(&Pose::default(), &TwistLimits::default());
+        assert_eq!(status, Status::Rotating);
+        assert_eq!(cmd.linear, 0.0);
+        let (pose, _, _, status) = drive(&path, std::f64::consts::PI, Pose::default());
+        assert_eq!(status, Status::Arrived);
+        assert!((pose.x + 3.0).abs() <= 0.1);
+    }
+
+    proptest! {
+        /// On random paths and poses, every command respects the speed limits and is finite.
+        #[test]
+        fn output_respects_the_limits_on_random_paths(
+            pts in proptest::collection::vec((-10.0f64..10.0, -10.0f64..10.0), 2..8),
+            x in -10.0f64..10.0, y in -10.0f64..10.0, yaw in -3.2f64..3.2, goal_yaw in -3.2f64..3.2,
+        ) {
+            let limits = TwistLimits::default();
+            let mut f = Follower::new(FollowerParams::default(), dense(&pts), goal_yaw).unwrap();
+            let (cmd, _) = f.command(&Pose { x, y, yaw }, &limits);
+            prop_assert!(cmd.linear.is_finite() && cmd.angular.is_finite());
+            prop_assert!(cmd.linear.abs() <= limits.max_linear + 1e-12);
+            prop_assert!(cmd.angular.abs() <= limits.max_angular + 1e-12);
+        }
+    }
+}

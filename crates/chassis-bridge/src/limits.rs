@@ -1,0 +1,158 @@
+//! Twist limits: every command the chassis receives is clamped to the tighter of the limits the
+//! planner forwards and the chassis's own hard limits, and to its acceleration limits. A command
+//! that is not a finite number becomes a stop: a NaN must never reach a motor.
+
+use crate::Twist2;
+use serde::{Deserialize, Serialize};
+
+/// Speed and acceleration limits of a differential-drive chassis.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TwistLimits {
+    /// |v| limit (m/s). Default 0.6: the patrol car paper's limit.
+    pub max_linear: f64,
+    /// |omega| limit (rad/s). Default 0.4: the patrol car paper's limit.
+    pub max_angular: f64,
+    /// |dv/dt| limit (m/s^2). Default 0.5.
+    pub max_linear_accel: f64,
+    /// |domega/dt| limit (rad/s^2). Default 1.0.
+    pub max_angular_accel: f64,
+}
+
+impl Default for TwistLimits {
+    fn default() -> Self {
+        Self {
+            max_linear: 0.6,
+            max_angular: 0.4,
+            max_linear_accel: 0.5,
+            max_angular_accel: 1.0,
+        }
+    }
+}
+
+impl TwistLimits {
+    /// The tighter of two sets of limits, field by field. Non-finite or negative values in
+    /// `other` are ignored (the forwarded limits cannot loosen or poison the hard ones).
+    pub fn tighter(&self, other: &TwistLimits) -> TwistLimits {
+        let pick = |mine: f64, theirs: f64| {
+            if theirs.is_finite() && theirs >= 0.0 {
+                mine.min(theirs)
+            } else {
+                mine
+            }
+        };
+        TwistLimits {
+            max_linear: pick(self.max_linear, other.max_linear),
+            max_angular: pick(self.max_angular, other.max_angular),
+            max_linear_accel: pick(self.max_linear_accel, other.max_linear_accel),
+            max_angular_accel: pick(self.max_angular_accel, other.max_angular_accel),
+        }
+    }
+
+    /// Whether every limit is a finite non-negative number.
+    pub fn is_valid(&self) -> bool {
+        [
+            self.max_linear,
+            self.max_angular,
+            self.max_linear_accel,
+            self.max_angular_accel,
+        ]
+        .iter()
+        .all(|v| v.is_finite() && *v >= 0.0)
+    }
+
+    /// The command to apply: `cmd` clamped to the speed limits and, from `previous` over `dt`
+    /// seconds, to the acceleration limits. A non-finite command (or `dt`) is a stop, still
+    /// reached within the acceleration limits.
+    pub fn apply(&self, cmd: Twist2, previous: Twist2, dt: f64) -> Twist2 {
+        let finite = cmd.linear.is_finite() && cmd.angular.is_finite();
+        let target = if finite { cmd } else { Twist2::STOP };
+        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        let step = |target: f64, prev: f64, max: f64, accel: f64| {
+            let prev = if prev.is_finite() {
+                prev.clamp(-max, max)
+            } else {
+                0.0
+            };
+            let wanted = target.clamp(-max, max);
+            let reach = accel * dt;
+            wanted.clamp(prev - reach, prev + reach).clamp(-max, max)
+        };
+        Twist2 {
+            linear: step(
+                target.linear,
+                previous.linear,
+                self.max_linear,
+                self.max_linear_accel,
+            ),
+            angular: step(
+                target.angular,
+                previous.angular,
+                self.max_angular,
+                self.max_angular_accel,
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn any_f64() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            -100.0f64..100.0,
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::NEG_INFINITY),
+            Just(0.0),
+        ]
+    }
+
+    proptest! {
+        /// For any command, NaN and infinities included, the output never exceeds the limits,
+        /// never changes faster than the acceleration limits, and NaN becomes a stop.
+        #[test]
+        fn output_respects_every_limit(v in any_f64(), w in any_f64(), pv in -0.6f64..0.6, pw in -0.4f64..0.4, dt in 0.0f64..0.5) {
+            let l = TwistLimits::default();
+            let out = l.apply(Twist2::new(v, w), Twist2::new(pv, pw), dt);
+            prop_assert!(out.linear.is_finite() && out.angular.is_finite());
+            prop_assert!(out.linear.abs() <= l.max_linear + 1e-12);
+            prop_assert!(out.angular.abs() <= l.max_angular + 1e-12);
+            prop_assert!((out.linear - pv).abs() <= l.max_linear_accel * dt + 1e-12);
+            prop_assert!((out.angular - pw).abs() <= l.max_angular_accel * dt + 1e-12);
+            if !(v.is_finite() && w.is_finite()) {
+                // Heading for a stop: never further from zero than before.
+                prop_assert!(out.linear.abs() <= pv.abs() + 1e-12 && out.angular.abs() <= pw.abs() + 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn forwarded_limits_can_only_tighten() {
+        let hard = TwistLimits::default();
+        let loose = TwistLimits {
+            max_linear: 2.0,
+            max_angular: f64::NAN,
+            max_linear_accel: -1.0,
+            max_angular_accel: 0.2,
+        };
+        let t = hard.tighter(&loose);
+        assert_eq!(
+            (
+                t.max_linear,
+                t.max_angular,
+                t.max_linear_accel,
+                t.max_angular_accel
+            ),
+            (0.6, 0.4, 0.5, 0.2)
+        );
+        // Enough time to reach any speed: clamped to the speed limits.
+        let out = hard.apply(Twist2::new(5.0, -5.0), Twist2::STOP, 10.0);
+        assert_eq!(out, Twist2::new(0.6, -0.4));
+        // A NaN command from full speed ramps down.
+        let out = hard.apply(Twist2::new(f64::NAN, 0.0), Twist2::new(0.6, 0.0), 0.1);
+        assert!((out.linear - 0.55).abs() < 1e-12);
+    }
+}
