@@ -22,10 +22,12 @@
 use crate::convert::{self, Failure};
 use crate::params::NodeParams;
 use anyhow::{Context as _, Result};
+use chassis_bridge::follower::{Follower, Status as FollowStatus};
+use chassis_bridge::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::builtin_interfaces::Time;
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
-use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
+use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::std_msgs::Header;
 use patrol_msgs::visualization_msgs::MarkerArray;
@@ -67,6 +69,10 @@ struct Shared {
     start: RwLock<Option<(Pose2, Instant)>>,
     /// Counts goals: a running goal plan stops when it moves on.
     goals: AtomicU64,
+    /// The latest `/odom` pose (map frame) and when it arrived: the follower's feedback.
+    odom: RwLock<Option<(Pose2, Instant)>>,
+    /// The plan being followed, if any.
+    follower: std::sync::Mutex<Option<Follower>>,
 }
 
 fn now() -> Time {
@@ -118,6 +124,8 @@ pub async fn run(params: NodeParams) -> Result<()> {
         map: RwLock::new(None),
         start: RwLock::new(None),
         goals: AtomicU64::new(0),
+        odom: RwLock::new(None),
+        follower: std::sync::Mutex::new(None),
     });
     let on_set = shared.clone();
     let options = NodeOptions::new()
@@ -235,11 +243,50 @@ pub async fn run(params: NodeParams) -> Result<()> {
         service_qos.clone(),
         service_qos,
     )?;
+    let cmd_topic = topic(
+        &mut node,
+        "/",
+        "cmd_vel",
+        "geometry_msgs",
+        "Twist",
+        &volatile,
+    )?;
+    let cmd_pub = Arc::new(node.create_publisher::<Twist>(&cmd_topic, Some(volatile.clone()))?);
+    let limits_topic = topic(
+        &mut node,
+        "/patrol_planner",
+        "twist_limits",
+        "geometry_msgs",
+        "Twist",
+        &latched,
+    )?;
+    let limits_pub = node.create_publisher::<Twist>(&limits_topic, Some(latched.clone()))?;
     let out = Outputs {
         plan: plan_pub,
         diagnostics: diag_pub,
         pareto: pareto_pub,
+        cmd_vel: cmd_pub,
     };
+    // The limits, latched, so the chassis bridge always knows them (a cmd_vel-style Twist).
+    let l = params.twist_limits;
+    let limits_msg = Twist {
+        linear: Vector3 {
+            x: l.max_linear,
+            y: 0.0,
+            z: 0.0,
+        },
+        angular: Vector3 {
+            x: 0.0,
+            y: 0.0,
+            z: l.max_angular,
+        },
+    };
+    if let Err(e) = limits_pub.async_publish(limits_msg).await {
+        warn!("/patrol_planner/twist_limits: {e:?}");
+    }
+    if params.follow_plan {
+        tokio::spawn(follow(shared.clone(), out.clone()));
+    }
 
     // The bundled map, loaded by the node itself and latched on /map.
     if !params.map_yaml.is_empty() {
@@ -319,6 +366,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
                         p.yaw + oyaw,
                     );
                     *s.start.write().expect("lock") = Some((in_map, Instant::now()));
+                    *s.odom.write().expect("lock") = Some((in_map, Instant::now()));
                 }
                 Err(f) => warn!("/odom ignored: {}", f.message),
             }
@@ -381,7 +429,27 @@ pub async fn run(params: NodeParams) -> Result<()> {
                 info!("plan for goal {id} cancelled by a newer goal");
                 continue;
             }
-            o.publish(&s, &outcome).await;
+            let path = o.publish(&s, &outcome).await;
+            if s.params.follow_plan {
+                // A new plan replaces the one being followed; a failed goal stops the robot.
+                let next = path.and_then(|p| {
+                    let pts = p
+                        .poses
+                        .iter()
+                        .map(|q| (q.pose.position.x, q.pose.position.y))
+                        .collect();
+                    Follower::new(
+                        s.params.follower,
+                        pts,
+                        outcome.result.as_ref().map_or(0.0, |r| r.1),
+                    )
+                });
+                let stop = next.is_none();
+                *s.follower.lock().expect("lock") = next;
+                if stop {
+                    o.drive(Twist2::STOP).await;
+                }
+            }
         }
     });
 
@@ -434,6 +502,60 @@ pub async fn run(params: NodeParams) -> Result<()> {
     }
     drop(node);
     Ok(())
+}
+
+/// The follower loop: at `control_rate_hz`, the next command for the plan being followed, from
+/// the latest `/odom`, within the twist and acceleration limits. It stops when odometry is stale
+/// and when the goal is reached (within position and heading tolerance).
+async fn follow(s: Arc<Shared>, o: Outputs) {
+    let dt = 1.0 / s.params.control_rate_hz;
+    let mut ticker = tokio::time::interval(Duration::from_secs_f64(dt));
+    let mut previous = Twist2::STOP;
+    let mut stale_reported = false;
+    loop {
+        ticker.tick().await;
+        let pose = s
+            .odom
+            .read()
+            .expect("lock")
+            .filter(|(_, t)| t.elapsed().as_secs_f64() <= s.params.pose_timeout)
+            .map(|(p, _)| p);
+        let cmd = {
+            let mut guard = s.follower.lock().expect("lock");
+            let Some(f) = guard.as_mut() else {
+                previous = Twist2::STOP;
+                continue;
+            };
+            match pose {
+                None => {
+                    if !stale_reported {
+                        warn!("following paused: no /odom for {} s", s.params.pose_timeout);
+                        stale_reported = true;
+                    }
+                    Twist2::STOP
+                }
+                Some(p) => {
+                    stale_reported = false;
+                    let (cmd, status) = f.command(
+                        &chassis_bridge::sim::Pose {
+                            x: p.x,
+                            y: p.y,
+                            yaw: p.yaw,
+                        },
+                        &s.params.twist_limits,
+                    );
+                    if status == FollowStatus::Arrived {
+                        info!("goal reached");
+                        *guard = None;
+                    }
+                    cmd
+                }
+            }
+        };
+        let applied = s.params.twist_limits.apply(cmd, previous, dt);
+        previous = applied;
+        o.drive(applied).await;
+    }
 }
 
 async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
@@ -589,9 +711,29 @@ struct Outputs {
     plan: Arc<Publisher<Path>>,
     diagnostics: Arc<Publisher<DiagnosticArray>>,
     pareto: Arc<Publisher<MarkerArray>>,
+    cmd_vel: Arc<Publisher<Twist>>,
 }
 
 impl Outputs {
+    /// A velocity command on `/cmd_vel`.
+    async fn drive(&self, t: Twist2) {
+        let msg = Twist {
+            linear: Vector3 {
+                x: t.linear,
+                y: 0.0,
+                z: 0.0,
+            },
+            angular: Vector3 {
+                x: 0.0,
+                y: 0.0,
+                z: t.angular,
+            },
+        };
+        if let Err(e) = self.cmd_vel.async_publish(msg).await {
+            warn!("/cmd_vel: {e:?}");
+        }
+    }
+
     fn header(&self, s: &Shared) -> Header {
         Header {
             stamp: now(),
@@ -624,10 +766,13 @@ impl Outputs {
         convert::path_msg(&plan.waypoints, goal_yaw, spacing, self.header(s))
     }
 
-    /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`.
-    async fn publish(&self, s: &Shared, outcome: &Outcome) {
+    /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`. Returns the
+    /// published path.
+    async fn publish(&self, s: &Shared, outcome: &Outcome) -> Option<Path> {
+        let mut published = None;
         if let Ok((plan, goal_yaw)) = &outcome.result {
             let path = self.path(s, plan, *goal_yaw);
+            published = Some(path.clone());
             if let Err(e) = self.plan.async_publish(path).await {
                 warn!("/plan: {e:?}");
             }
@@ -648,5 +793,6 @@ impl Outputs {
             outcome.elapsed_ms,
         )
         .await;
+        published
     }
 }

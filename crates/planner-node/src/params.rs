@@ -3,6 +3,8 @@
 //! parameter file (Nav2's layout), `config/planner.yaml` by default.
 
 use anyhow::{Context, Result};
+use chassis_bridge::follower::FollowerParams;
+use chassis_bridge::limits::TwistLimits;
 use planner_core::config::PlannerConfig;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -23,6 +25,16 @@ pub struct NodeParams {
     pub map_to_odom: [f64; 3],
     /// Publish every Pareto-front path on `/patrol_planner/pareto` for RViz.
     pub publish_pareto: bool,
+    /// Follow each goal's plan: publish `/cmd_vel` from `/odom` (regulated pure pursuit).
+    pub follow_plan: bool,
+    /// The chassis limits the follower keeps to, also forwarded on `/patrol_planner/twist_limits`.
+    pub twist_limits: TwistLimits,
+    /// The path follower.
+    pub follower: FollowerParams,
+    /// Follower rate (Hz).
+    pub control_rate_hz: f64,
+    /// The follower stops when `/odom` is older than this (s).
+    pub pose_timeout: f64,
 }
 
 impl Default for NodeParams {
@@ -33,6 +45,11 @@ impl Default for NodeParams {
             global_frame: "map".into(),
             map_to_odom: [0.0; 3],
             publish_pareto: true,
+            follow_plan: true,
+            twist_limits: TwistLimits::default(),
+            follower: FollowerParams::default(),
+            control_rate_hz: 20.0,
+            pose_timeout: 0.5,
         }
     }
 }
@@ -57,6 +74,17 @@ impl NodeParams {
                     .to_string_lossy()
                     .into_owned();
             }
+        }
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !params.twist_limits.is_valid()
+            || !positive(params.control_rate_hz)
+            || params.control_rate_hz > 200.0
+            || !positive(params.pose_timeout)
+        {
+            anyhow::bail!(
+                "{}: twist_limits, control_rate_hz and pose_timeout must be finite and positive",
+                path.display()
+            );
         }
         if !params.map_to_odom.iter().all(|v| v.is_finite()) {
             anyhow::bail!("{}: map_to_odom must be finite", path.display());

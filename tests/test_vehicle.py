@@ -1,0 +1,124 @@
+"""The closed loop from outside: patrol_planner follows its plan on /cmd_vel, chassis_bridge
+(sim back end) turns it into wheel speeds and odometry. On the bundled data-center map, published
+by this test from its own copy, the simulated car reaches the goal within tolerance without ever
+entering an occupied cell (checked from /odom), every /cmd_vel and /wheel_cmd stays within
+0.6 m/s and 0.4 rad/s, and cutting /cmd_vel stops the wheels within the watchdog's timeout.
+Runs after test_node.py (which needs a node that has never heard /odom)."""
+import math
+import os
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import OccupancyGrid, Odometry
+from std_msgs.msg import Float64MultiArray
+
+from conftest import BINARY, ROOT, domain_id, stamped
+
+BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
+R, B = 0.08, 0.40  # config/chassis.yaml's wheel radius and separation
+GOAL = (8.1, 6.9)
+
+
+def bundled_map():
+    """config/maps/datacenter_100.{pgm,yaml} read the map_server way (trinary, 0.65 / 0.196)."""
+    raw = (ROOT / "config" / "maps" / "datacenter_100.pgm").read_bytes()
+    fields, i = [], 0
+    while len(fields) < 4:
+        while raw[i:i + 1].isspace():
+            i += 1
+        if raw[i:i + 1] == b"#":
+            while raw[i:i + 1] != b"\n":
+                i += 1
+            continue
+        j = i
+        while not raw[j:j + 1].isspace():
+            j += 1
+        fields.append(raw[i:j])
+        i = j
+    w, h = int(fields[1]), int(fields[2])
+    pixels = np.frombuffer(raw[i + 1:i + 1 + w * h], dtype=np.uint8).reshape(h, w)
+    occ = 1.0 - pixels / 255.0
+    grid = np.where(occ > 0.65, 100, np.where(occ < 0.196, 0, -1)).astype(np.int8)
+    return grid[::-1].copy()  # image rows are top-down; grid rows start at the origin
+
+
+@pytest.fixture(scope="module")
+def bridge(ros):
+    assert BRIDGE.exists(), f"{BRIDGE} is missing: cargo build --release -p chassis-bridge"
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id()), RUST_LOG="info")
+    log = open(ROOT / "target" / "chassis_bridge_test.log", "w")
+    proc = subprocess.Popen([str(BRIDGE), "--params-file", str(ROOT / "config" / "chassis.yaml")], env=env, stdout=log, stderr=log)
+    yield proc
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=15) == 0
+    log.close()
+
+
+def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(ros, bridge):
+    odom, cmds, wheels = [], [], []
+    ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+    ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
+    ros.node.create_subscription(Float64MultiArray, "/wheel_cmd", wheels.append, 100)
+    cmd_pub = ros.node.create_publisher(Twist, "/cmd_vel", 10)
+    grid = bundled_map()
+    msg = OccupancyGrid()
+    msg.header.frame_id = "map"
+    msg.info.resolution, msg.info.width, msg.info.height = 0.2, grid.shape[1], grid.shape[0]
+    msg.info.origin.orientation.w = 1.0
+    msg.data = grid.flatten().tolist()
+    ros.map_pub.publish(msg)
+    ros.spin_until(lambda: len(odom) > 10, 20, "/odom from the simulated chassis")
+
+    # Send the goal until the node has the map and answers with a plan to it.
+    def planned():
+        before = len(ros.plans)
+        ros.goal_pub.publish(stamped(*GOAL, yaw=math.pi / 2))
+        deadline = time.time() + 3
+        while time.time() < deadline:
+            ros.spin_until(lambda: True, 1, "")
+            p = next((p for p in ros.plans[before:] if p.poses and abs(p.poses[-1].pose.position.x - GOAL[0]) < 1e-6), None)
+            if p:
+                return p
+        return None
+
+    sent = time.time()
+    ros.spin_until(planned, 40, "a plan to the goal")
+
+    def arrived():
+        p = odom[-1].pose.pose
+        yaw = 2 * math.atan2(p.orientation.z, p.orientation.w)
+        near = math.hypot(p.position.x - GOAL[0], p.position.y - GOAL[1]) <= 0.15
+        turned = abs((yaw - math.pi / 2 + math.pi) % (2 * math.pi) - math.pi) <= 0.15
+        still = abs(odom[-1].twist.twist.linear.x) < 1e-3 and abs(odom[-1].twist.twist.angular.z) < 1e-3
+        return near and turned and still
+
+    ros.spin_until(arrived, 120, "the car to reach the goal")
+    print(f"\ndriving time from goal to arrival: {time.time() - sent:.1f} s")
+
+    # Never in an occupied (or unknown) cell of the test's own map.
+    for m in odom:
+        x, y = m.pose.pose.position.x, m.pose.pose.position.y
+        c, r = int(math.floor(x / 0.2)), int(math.floor(y / 0.2))
+        assert 0 <= c < grid.shape[1] and 0 <= r < grid.shape[0] and 0 <= grid[r, c] < 65, f"the car entered cell ({c}, {r}) at ({x:.2f}, {y:.2f})"
+    # Every command within the patrol car's limits.
+    assert cmds and wheels
+    for t in cmds:
+        assert abs(t.linear.x) <= 0.6 + 1e-9 and abs(t.angular.z) <= 0.4 + 1e-9
+    for wmsg in wheels:
+        left, right = wmsg.data
+        assert abs(R * (right + left) / 2) <= 0.6 + 1e-9 and abs(R * (right - left) / B) <= 0.4 + 1e-9
+
+    # Commands from another source, then none: the wheels stop within the 0.5 s timeout.
+    ros.wait_matched(cmd_pub, "/cmd_vel")
+    end = time.time() + 1.0
+    while time.time() < end:
+        cmd_pub.publish(Twist(linear=__import__("geometry_msgs.msg", fromlist=["Vector3"]).Vector3(x=0.3)))
+        ros.spin_until(lambda: True, 0.05, "")
+    assert any(abs(w.data[0]) > 0.1 for w in wheels[-20:]), "the bridge ignored /cmd_vel"
+    cut = time.time()
+    stopped_at = ros.spin_until(lambda: next((time.time() for w in wheels[-3:] if w.data[0] == 0.0 and w.data[1] == 0.0), None), 3, "the wheels to stop")
+    assert stopped_at - cut <= 0.5 + 0.25, f"wheels stopped {stopped_at - cut:.2f} s after the last command"
