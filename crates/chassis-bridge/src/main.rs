@@ -13,7 +13,6 @@ use chassis_bridge::sim::{Pose, Unicycle};
 use chassis_bridge::watchdog::{Verdict, Watchdog};
 use chassis_bridge::Twist2;
 use log::{info, warn};
-use patrol_msgs::builtin_interfaces::Time;
 use patrol_msgs::geometry_msgs::{
     Point, Pose as PoseMsg, PoseWithCovariance, Quaternion, Twist, TwistWithCovariance, Vector3,
 };
@@ -21,12 +20,11 @@ use patrol_msgs::nav_msgs::Odometry;
 use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 use ros2_client::{
     qos::{Durability, History, WhenFull},
-    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
+    MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
 };
 use serde::Deserialize;
-use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::Duration;
 
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -56,26 +54,9 @@ impl Default for Params {
     }
 }
 
-fn now() -> Time {
-    let d = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
-    Time {
-        sec: d.as_secs() as i32,
-        nanosec: d.subsec_nanos(),
-    }
-}
-
 fn load() -> Result<Params> {
-    let args: Vec<String> = std::env::args().collect();
-    let explicit = args
-        .windows(2)
-        .find(|w| w[0] == "--params-file")
-        .map(|w| PathBuf::from(&w[1]));
-    let path = explicit
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("config/chassis.yaml"));
-    let params: Params = if explicit.is_some() || path.exists() {
+    let (path, explicit) = ros_edge::params_file("config/chassis.yaml");
+    let params: Params = if explicit || path.exists() {
         let block = planner_io::load_ros_parameters(&path, "chassis_bridge")?;
         serde_yaml::from_value(block)
             .with_context(|| format!("{}: chassis_bridge parameters", path.display()))?
@@ -121,14 +102,7 @@ fn main() -> std::process::ExitCode {
 }
 
 async fn run(p: Params) -> Result<()> {
-    let domain = match std::env::var("ROS_DOMAIN_ID") {
-        Ok(v) if !v.trim().is_empty() => v
-            .trim()
-            .parse::<u16>()
-            .with_context(|| format!("ROS_DOMAIN_ID `{v}`"))?,
-        _ => 0,
-    };
-    let context = Context::with_options(ContextOptions::new().domain_id(domain))?;
+    let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(
         NodeName::new("/", "chassis_bridge")?,
         NodeOptions::new().enable_rosout(true),
@@ -256,7 +230,7 @@ async fn run(p: Params) -> Result<()> {
         let pose = car.pose;
         let odom = Odometry {
             header: Header {
-                stamp: now(),
+                stamp: ros_edge::now(),
                 frame_id: p.odom_frame.clone(),
             },
             child_frame_id: p.base_frame.clone(),

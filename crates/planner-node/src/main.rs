@@ -10,20 +10,12 @@ mod node;
 mod params;
 
 use params::NodeParams;
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info")).init();
-    let args: Vec<String> = std::env::args().collect();
-    let explicit = args
-        .windows(2)
-        .find(|w| w[0] == "--params-file")
-        .map(|w| PathBuf::from(&w[1]));
-    let path = explicit
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("config/planner.yaml"));
-    let params = if explicit.is_some() || path.exists() {
+    let (path, explicit) = ros_edge::params_file("config/planner.yaml");
+    let params = if explicit || path.exists() {
         match NodeParams::load(&path) {
             Ok(p) => {
                 log::info!("parameters from {}", path.display());

@@ -21,11 +21,10 @@
 
 use crate::convert::{self, Failure};
 use crate::params::NodeParams;
-use anyhow::{Context as _, Result};
+use anyhow::Result;
 use chassis_bridge::follower::{Follower, Status as FollowStatus};
 use chassis_bridge::Twist2;
 use log::{error, info, warn};
-use patrol_msgs::builtin_interfaces::Time;
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
@@ -39,12 +38,12 @@ use planner_core::registry;
 use rand::SeedableRng;
 use ros2_client::{
     qos::{Durability, History, WhenFull},
-    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue,
-    Publisher, QosProfile, ServiceMapping, ServiceTypeName,
+    MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, Publisher, QosProfile,
+    ServiceMapping, ServiceTypeName,
 };
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 /// Settings that `ros2 param set` may change while the node runs.
 #[derive(Clone, Debug)]
@@ -73,16 +72,6 @@ struct Shared {
     odom: RwLock<Option<(Pose2, Instant)>>,
     /// The plan being followed, if any.
     follower: std::sync::Mutex<Option<Follower>>,
-}
-
-fn now() -> Time {
-    let d = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
-    Time {
-        sec: d.as_secs() as i32,
-        nanosec: d.subsec_nanos(),
-    }
 }
 
 /// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
@@ -152,16 +141,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
             info!("parameter {name} set to {value:?}");
             Ok(())
         }));
-    // ros2-client starts on domain 0 unless told: honour ROS_DOMAIN_ID as every ROS 2 node does.
-    let domain = match std::env::var("ROS_DOMAIN_ID") {
-        Ok(v) if !v.trim().is_empty() => v
-            .trim()
-            .parse::<u16>()
-            .with_context(|| format!("ROS_DOMAIN_ID `{v}` is not a number"))?,
-        _ => 0,
-    };
-    let context =
-        Context::with_options(ContextOptions::new().domain_id(domain)).context("starting DDS")?;
+    let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(NodeName::new("/", "patrol_planner")?, options)?;
     tokio::spawn(node.spinner()?.spin());
 
@@ -297,7 +277,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
         .await?
         {
             Ok(map) => {
-                let msg = convert::msg_from_grid(&map, &params.global_frame, now());
+                let msg = convert::msg_from_grid(&map, &params.global_frame, ros_edge::now());
                 install_map(&shared, map, "map_yaml").await;
                 if let Err(e) = map_pub.async_publish(msg).await {
                     error!("publishing the map on /map: {e:?}");
@@ -736,7 +716,7 @@ impl Outputs {
 
     fn header(&self, s: &Shared) -> Header {
         Header {
-            stamp: now(),
+            stamp: ros_edge::now(),
             frame_id: s.params.global_frame.clone(),
         }
     }

@@ -1,0 +1,50 @@
+//! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
+//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, and header
+//! stamps from the system clock.
+
+use anyhow::{Context as _, Result};
+use patrol_msgs::builtin_interfaces::Time;
+use ros2_client::{Context, ContextOptions};
+use std::path::PathBuf;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// The domain from `ROS_DOMAIN_ID` (0 when unset or empty), as every ROS 2 node reads it;
+/// ros2-client would otherwise always start on domain 0.
+pub fn domain_id() -> Result<u16> {
+    match std::env::var("ROS_DOMAIN_ID") {
+        Ok(v) if !v.trim().is_empty() => v
+            .trim()
+            .parse::<u16>()
+            .with_context(|| format!("ROS_DOMAIN_ID `{v}` is not a number")),
+        _ => Ok(0),
+    }
+}
+
+/// A DDS context on [`domain_id`], and that domain.
+pub fn context() -> Result<(Context, u16)> {
+    let domain = domain_id()?;
+    let context =
+        Context::with_options(ContextOptions::new().domain_id(domain)).context("starting DDS")?;
+    Ok((context, domain))
+}
+
+/// The parameter file: `--params-file FILE` (anywhere on the command line, so also after
+/// `--ros-args` as `ros2 run` passes it), else `default`. The flag says whether it was given.
+pub fn params_file(default: &str) -> (PathBuf, bool) {
+    let args: Vec<String> = std::env::args().collect();
+    match args.windows(2).find(|w| w[0] == "--params-file") {
+        Some(w) => (PathBuf::from(&w[1]), true),
+        None => (PathBuf::from(default), false),
+    }
+}
+
+/// Now, as a header stamp.
+pub fn now() -> Time {
+    let d = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    Time {
+        sec: d.as_secs() as i32,
+        nanosec: d.subsec_nanos(),
+    }
+}
