@@ -28,7 +28,7 @@
 //! - the first good path is the EAPF path (escapes included), or A*'s when the EAPF cannot reach
 //!   the goal (the swarms' rule; the result says so); it seeds the best-so-far ant.
 
-use crate::astar::astar_cells;
+use crate::astar::{astar_cells, cell_path_length};
 use crate::config::{check, check_counts, ParamError, Range};
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
 use crate::inflation::PlanningGrid;
@@ -303,7 +303,7 @@ impl Planner for ColonyPlanner {
                     astar_cells(grid, problem.start, problem.goal, ctx)?.0
                 }
             };
-            let len = cell_length(&cells);
+            let len = cell_path_length(&cells);
             best = Some((cells, len));
         }
 
@@ -371,7 +371,7 @@ impl Planner for ColonyPlanner {
                 }
                 stats.evaluations += 1;
                 if reached {
-                    let len = cell_length(&walk);
+                    let len = cell_path_length(&walk);
                     if best.as_ref().is_none_or(|b| len < b.1 - 1e-9) {
                         best = Some((walk.clone(), len));
                         improved = true;
@@ -442,13 +442,6 @@ impl Planner for ColonyPlanner {
             pareto: Vec::new(),
         })
     }
-}
-
-fn cell_length(cells: &[Cell]) -> f64 {
-    cells
-        .windows(2)
-        .map(|w| (w[1].center() - w[0].center()).norm())
-        .sum()
 }
 
 #[cfg(test)]

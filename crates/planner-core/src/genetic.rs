@@ -191,11 +191,7 @@ pub fn turn_penalty(from: (i32, i32), to: (i32, i32)) -> f64 {
 /// The fitness terms of a cell path (4.2).
 pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell]) -> FitnessTerms {
     let res = grid.resolution();
-    let length_m = path
-        .windows(2)
-        .map(|w| (w[1].center() - w[0].center()).norm())
-        .sum::<f64>()
-        * res;
+    let length_m = crate::astar::cell_path_length(path) * res;
     let safety = path
         .iter()
         .filter(|c| {
