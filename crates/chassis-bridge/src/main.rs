@@ -19,7 +19,7 @@ use patrol_msgs::geometry_msgs::{
 use patrol_msgs::nav_msgs::Odometry;
 use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 use ros2_client::{
-    qos::{Durability, History, WhenFull},
+    qos::{Durability, History},
     MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
 };
 use serde::Deserialize;
@@ -108,15 +108,9 @@ async fn run(p: Params) -> Result<()> {
         NodeOptions::new().enable_rosout(true),
     )?;
     tokio::spawn(node.spinner()?.spin());
-    let reliable = |depth, durability| {
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::DEFAULT)
-            .durability(durability)
-            .history(History::KeepLast { depth })
-    };
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
-    let volatile = reliable(10, Durability::Volatile);
-    let latched = reliable(1, Durability::TransientLocal);
+    let volatile = ros_edge::reliable(10, Durability::Volatile);
+    let latched = ros_edge::reliable(1, Durability::TransientLocal);
     let cmd_topic = node.create_topic(
         &Name::new("/", "cmd_vel")?,
         MessageTypeName::new("geometry_msgs", "Twist"),

@@ -37,7 +37,7 @@ use planner_core::planner::{Interrupt, Plan, PlanContext, PlannerRng, Query, Sol
 use planner_core::registry;
 use rand::SeedableRng;
 use ros2_client::{
-    qos::{Durability, History, WhenFull},
+    qos::{Durability, History},
     MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, Publisher, QosProfile,
     ServiceMapping, ServiceTypeName,
 };
@@ -91,13 +91,6 @@ fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), String> 
         ("planner", v) => Err(format!("planner must be a string, not {v:?}")),
         _ => Err(format!("`{name}` cannot be set at run time")),
     }
-}
-
-fn reliable(depth: usize, durability: Durability) -> QosProfile {
-    QosProfile::publisher_default()
-        .reliability_reliable(WhenFull::DEFAULT)
-        .durability(durability)
-        .history(History::KeepLast { depth })
 }
 
 /// Runs the node until Ctrl-C or SIGTERM.
@@ -154,8 +147,8 @@ pub async fn run(params: NodeParams) -> Result<()> {
      -> Result<_> {
         Ok(node.create_topic(&Name::new(ns, name)?, MessageTypeName::new(pkg, ty), qos)?)
     };
-    let latched = reliable(1, Durability::TransientLocal);
-    let volatile = reliable(10, Durability::Volatile);
+    let latched = ros_edge::reliable(1, Durability::TransientLocal);
+    let volatile = ros_edge::reliable(10, Durability::Volatile);
     let map_topic = topic(&mut node, "/", "map", "nav_msgs", "OccupancyGrid", &latched)?;
     let map_pub =
         Arc::new(node.create_publisher::<OccupancyGrid>(&map_topic, Some(latched.clone()))?);
@@ -172,7 +165,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
     )?;
     let diag_pub =
         Arc::new(node.create_publisher::<DiagnosticArray>(&diag_topic, Some(volatile.clone()))?);
-    let pareto_qos = reliable(1, Durability::Volatile);
+    let pareto_qos = ros_edge::reliable(1, Durability::Volatile);
     let pareto_topic = topic(
         &mut node,
         "/patrol_planner",
@@ -215,7 +208,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
     let odom_topic = topic(&mut node, "/", "odom", "nav_msgs", "Odometry", &best_effort)?;
     let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort))?;
-    let service_qos = reliable(10, Durability::Volatile);
+    let service_qos = ros_edge::reliable(10, Durability::Volatile);
     let server = node.create_server::<GetPlanRequest, GetPlanResponse>(
         ServiceMapping::Enhanced,
         &Name::new("/patrol_planner", "make_plan")?,

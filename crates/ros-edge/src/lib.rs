@@ -1,10 +1,12 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
 //! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, and header
-//! stamps from the system clock.
+//! stamps from the system clock, and the reliable QoS profile both set explicitly on every
+//! topic (ros2-client's defaults differ from rclpy's).
 
 use anyhow::{Context as _, Result};
 use patrol_msgs::builtin_interfaces::Time;
-use ros2_client::{Context, ContextOptions};
+use ros2_client::qos::{Durability, History, WhenFull};
+use ros2_client::{Context, ContextOptions, QosProfile};
 use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -47,4 +49,12 @@ pub fn now() -> Time {
         sec: d.as_secs() as i32,
         nanosec: d.subsec_nanos(),
     }
+}
+
+/// Reliable QoS keeping the last `depth` samples, volatile or transient local (latched).
+pub fn reliable(depth: usize, durability: Durability) -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(durability)
+        .history(History::KeepLast { depth })
 }
