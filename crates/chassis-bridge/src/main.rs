@@ -84,14 +84,8 @@ fn load() -> Result<Params> {
 }
 
 fn main() -> std::process::ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info")).init();
-    let result = load().and_then(|p| {
-        tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
-            .enable_all()
-            .build()?
-            .block_on(run(p))
-    });
+    ros_edge::logging::init(&["chassis_bridge"]);
+    let result = load().and_then(|p| ros_edge::run_ros(run(p)));
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -107,7 +101,11 @@ async fn run(p: Params) -> Result<()> {
         NodeName::new("/", "chassis_bridge")?,
         NodeOptions::new().enable_rosout(true),
     )?;
-    tokio::spawn(node.spinner()?.spin());
+    let spinner = tokio::spawn(node.spinner()?.spin());
+    // Every task holding a DDS reader or writer, so that shutdown can end them before the
+    // node and its participant go (otherwise RustDDS logs an error for each endpoint).
+    let mut tasks = tokio::task::JoinSet::new();
+    ros_edge::logging::forward_to_rosout(node.logging_handle());
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
     let volatile = ros_edge::reliable(10, Durability::Volatile);
     let latched = ros_edge::reliable(1, Durability::TransientLocal);
@@ -141,7 +139,7 @@ async fn run(p: Params) -> Result<()> {
     let latest: Arc<Mutex<(Twist2, bool)>> = Arc::new(Mutex::new((Twist2::STOP, false)));
     let forwarded: Arc<Mutex<Option<TwistLimits>>> = Arc::new(Mutex::new(None));
     let l = latest.clone();
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         loop {
             if let Ok((t, _)) = cmd_sub.async_take().await {
                 *l.lock().expect("lock") = (Twist2::new(t.linear.x, t.angular.z), true);
@@ -149,7 +147,7 @@ async fn run(p: Params) -> Result<()> {
         }
     });
     let f = forwarded.clone();
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         loop {
             if let Ok((t, _)) = lim_sub.async_take().await {
                 let lim = TwistLimits {
@@ -271,6 +269,11 @@ async fn run(p: Params) -> Result<()> {
             data: vec![0.0, 0.0],
         })
         .await;
+    ros_edge::logging::stop_forwarding();
+    tasks.shutdown().await;
+    // Dropping the node stops its spinner, which holds the node's own endpoints (parameter
+    // services, rosout); they must go before the participant does, when `context` drops.
     drop(node);
+    let _ = spinner.await;
     Ok(())
 }

@@ -13,7 +13,8 @@ use params::NodeParams;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info")).init();
+    // The node's own records (and the planners' notes) also go to /rosout once the node exists.
+    ros_edge::logging::init(&["patrol_planner", "planner_core", "planner_io"]);
     let (path, explicit) = ros_edge::params_file("config/planner.yaml");
     let params = if explicit || path.exists() {
         match NodeParams::load(&path) {
@@ -30,18 +31,7 @@ fn main() -> ExitCode {
         log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
         NodeParams::default()
     };
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-    {
-        Ok(r) => r,
-        Err(e) => {
-            log::error!("tokio: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    match runtime.block_on(node::run(params)) {
+    match ros_edge::run_ros(node::run(params)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             log::error!("{e:#}");

@@ -13,6 +13,7 @@
 //! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
 //! | out | `/patrol_planner/pareto` | visualization_msgs/MarkerArray | reliable, volatile, depth 1 |
 //! | service | `/patrol_planner/make_plan` | nav_msgs/srv/GetPlan | reliable |
+//! | out | `/rosout` | rcl_interfaces/Log | ros2-client's (reliable, transient local, depth 1) |
 //!
 //! A new goal cancels a plan still running for an older one (its interrupt callback sees the
 //! goal counter move); goals that arrive faster than plans finish are coalesced to the newest.
@@ -136,7 +137,11 @@ pub async fn run(params: NodeParams) -> Result<()> {
         }));
     let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(NodeName::new("/", "patrol_planner")?, options)?;
-    tokio::spawn(node.spinner()?.spin());
+    let spinner = tokio::spawn(node.spinner()?.spin());
+    // Every task holding a DDS reader or writer, so that shutdown can end them before the
+    // node and its participant go (otherwise RustDDS logs an error for each endpoint).
+    let mut tasks = tokio::task::JoinSet::new();
+    ros_edge::logging::forward_to_rosout(node.logging_handle());
 
     let topic = |node: &mut ros2_client::Node,
                  ns: &str,
@@ -258,7 +263,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
         warn!("/patrol_planner/twist_limits: {e:?}");
     }
     if params.follow_plan {
-        tokio::spawn(follow(shared.clone(), out.clone()));
+        tasks.spawn(follow(shared.clone(), out.clone()));
     }
 
     // The bundled map, loaded by the node itself and latched on /map.
@@ -282,7 +287,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
 
     // /map
     let (s, o) = (shared.clone(), out.clone());
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         loop {
             match map_sub.async_take().await {
                 Ok((msg, _)) => {
@@ -293,7 +298,6 @@ pub async fn run(params: NodeParams) -> Result<()> {
                                 "INVALID_INPUT",
                                 format!("map on /map refused, keeping the last good one: {e}"),
                             );
-                            warn!("{}", f.message);
                             o.diagnose(&s, 0, Err(&f), 0.0).await;
                         }
                         Err(e) => error!("map task: {e}"),
@@ -307,7 +311,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
     // Start poses: the latest of /initialpose, /amcl_pose and /odom wins.
     for (name, sub) in [("/initialpose", initial_sub), ("/amcl_pose", amcl_sub)] {
         let s = shared.clone();
-        tokio::spawn(async move {
+        tasks.spawn(async move {
             loop {
                 let Ok((msg, _)) = sub.async_take().await else {
                     continue;
@@ -324,7 +328,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
         });
     }
     let s = shared.clone();
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         loop {
             let Ok((msg, _)) = odom_sub.async_take().await else {
                 continue;
@@ -349,7 +353,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
     // Goals: checked on arrival, then coalesced so that only the newest is planned.
     let (goal_tx, mut goal_rx) = tokio::sync::watch::channel::<Option<(u64, Pose2)>>(None);
     let (s, o) = (shared.clone(), out.clone());
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         loop {
             let Ok((msg, _)) = goal_sub.async_take().await else {
                 continue;
@@ -360,15 +364,12 @@ pub async fn run(params: NodeParams) -> Result<()> {
                     // Fails only when the planning task has ended, i.e. during shutdown.
                     let _ = goal_tx.send(Some((id, goal)));
                 }
-                Err(f) => {
-                    warn!("goal refused: {}", f.message);
-                    o.diagnose(&s, 0, Err(&f), 0.0).await;
-                }
+                Err(f) => o.diagnose(&s, 0, Err(&f), 0.0).await,
             }
         }
     });
     let (s, o) = (shared.clone(), out.clone());
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         while goal_rx.changed().await.is_ok() {
             let Some((id, goal)) = *goal_rx.borrow_and_update() else {
                 continue;
@@ -428,7 +429,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
 
     // GetPlan: its own start when the request names a frame, else the current pose.
     let (s, o) = (shared.clone(), out.clone());
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         loop {
             let (id, req) = match server.async_receive_request().await {
                 Ok(r) => r,
@@ -447,13 +448,10 @@ pub async fn run(params: NodeParams) -> Result<()> {
             .await;
             let plan = match &outcome.result {
                 Ok((plan, goal_yaw)) => o.path(&s, plan, *goal_yaw),
-                Err(f) => {
-                    warn!("make_plan failed: {}: {}", f.code, f.message);
-                    Path {
-                        header: o.header(&s),
-                        poses: Vec::new(),
-                    }
-                }
+                Err(_) => Path {
+                    header: o.header(&s),
+                    poses: Vec::new(),
+                },
             };
             if let Err(e) = server
                 .async_send_response(id, GetPlanResponse { plan })
@@ -473,7 +471,12 @@ pub async fn run(params: NodeParams) -> Result<()> {
         _ = tokio::signal::ctrl_c() => info!("Ctrl-C: shutting down"),
         _ = term.recv() => info!("SIGTERM: shutting down"),
     }
+    ros_edge::logging::stop_forwarding();
+    tasks.shutdown().await;
+    // Dropping the node stops its spinner, which holds the node's own endpoints (parameter
+    // services, rosout); they must go before the participant does, when `context` drops.
     drop(node);
+    let _ = spinner.await;
     Ok(())
 }
 
@@ -636,28 +639,17 @@ fn plan(s: &Shared, start: Pose2, goal: Pose2, tolerance: f64, goal_id: Option<u
     );
     let elapsed_ms = t0.elapsed().as_secs_f64() * 1e3;
     match result {
-        Ok(plan) => {
-            info!(
-                "{}: {:.2} m, {:.2} rad in {elapsed_ms:.1} ms (seed {seed})",
-                plan.planner, plan.metrics.length_m, plan.metrics.turning_rad
-            );
-            Outcome {
-                result: Ok((plan, goal.yaw)),
-                seed,
-                elapsed_ms,
-            }
-        }
-        Err(e) => {
-            let f = Failure::from(e);
-            if f.code != "CANCELLED" {
-                warn!("{}: {} ({}; seed {seed})", live.planner, f.message, f.code);
-            }
-            Outcome {
-                result: Err(f),
-                seed,
-                elapsed_ms,
-            }
-        }
+        // Logged where the answer is published (Outputs::diagnose), with every other outcome.
+        Ok(plan) => Outcome {
+            result: Ok((plan, goal.yaw)),
+            seed,
+            elapsed_ms,
+        },
+        Err(e) => Outcome {
+            result: Err(Failure::from(e)),
+            seed,
+            elapsed_ms,
+        },
     }
 }
 
@@ -722,6 +714,14 @@ impl Outputs {
         elapsed_ms: f64,
     ) {
         let planner = s.live.read().expect("lock").planner.clone();
+        // The one place every answer is logged (terminal and /rosout) with its reason.
+        match result {
+            Ok(plan) => info!(
+                "{planner}: {:.2} m, {:.2} rad of turning in {elapsed_ms:.1} ms (seed {seed})",
+                plan.metrics.length_m, plan.metrics.turning_rad
+            ),
+            Err(f) => warn!("{planner}: {}: {} (seed {seed})", f.code, f.message),
+        }
         let msg = convert::diagnostics(self.header(s), &planner, seed, result, elapsed_ms);
         if let Err(e) = self.diagnostics.async_publish(msg).await {
             warn!("/diagnostics: {e:?}");

@@ -1,12 +1,15 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
-//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, and header
-//! stamps from the system clock, and the reliable QoS profile both set explicitly on every
-//! topic (ros2-client's defaults differ from rclpy's).
+//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header
+//! stamps from the system clock, the reliable QoS profile set explicitly on every topic
+//! (ros2-client's defaults differ from rclpy's), and logging to the terminal and `/rosout`.
+
+pub mod logging;
 
 use anyhow::{Context as _, Result};
 use patrol_msgs::builtin_interfaces::Time;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{Context, ContextOptions, QosProfile};
+use std::future::Future;
 use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -57,4 +60,17 @@ pub fn reliable(depth: usize, durability: Durability) -> QosProfile {
         .reliability_reliable(WhenFull::DEFAULT)
         .durability(durability)
         .history(History::KeepLast { depth })
+}
+
+/// Runs a ROS 2 binary's async main on the two-thread tokio runtime both binaries use.
+pub fn run_ros<F>(main: F) -> Result<()>
+where
+    F: Future<Output = Result<()>>,
+{
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting tokio")?
+        .block_on(main)
 }
