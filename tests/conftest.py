@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 import rclpy
+import rclpy.executors
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -29,9 +30,17 @@ def domain_id():
 class Ros:
     """An rclpy node with the subscriptions, publishers and clients the tests use."""
 
-    def __init__(self, domain):
-        rclpy.init(domain_id=domain)
-        self.node = rclpy.create_node(f"patrol_planner_test_{os.getpid()}")
+    def __init__(self, domain, context=None):
+        # The session's node uses rclpy's default context; a test that needs a second domain
+        # passes its own context.
+        self.context = context
+        if context is None:
+            rclpy.init(domain_id=domain)
+        else:
+            rclpy.init(domain_id=domain, context=context)
+        self.executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        self.node = rclpy.create_node(f"patrol_planner_test_{os.getpid()}", context=context)
+        self.executor.add_node(self.node)
         self.plans, self.diagnostics, self.maps = [], [], []
         self.node.create_subscription(PathMsg, "/plan", self.plans.append, LATCHED)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics.append, 50)
@@ -42,7 +51,7 @@ class Ros:
     def spin_until(self, predicate, timeout, what):
         deadline = time.time() + timeout
         while time.time() < deadline:
-            rclpy.spin_once(self.node, timeout_sec=0.05)
+            self.executor.spin_once(timeout_sec=0.05)
             value = predicate()
             if value:
                 return value
@@ -65,32 +74,50 @@ class Ros:
             lambda: next((d for d in self.diagnostics_since(index) if d[0] == code), None), timeout, f"result {code} on /diagnostics"
         )
 
+    def spin_for(self, seconds):
+        deadline = time.time() + seconds
+        while time.time() < deadline:
+            self.executor.spin_once(timeout_sec=0.05)
+
     def close(self):
+        self.executor.shutdown()
         self.node.destroy_node()
-        rclpy.shutdown()
+        rclpy.shutdown(context=self.context)
+
+
+def start_node(domain, params_file, log_name):
+    """The real release binary on `domain`, its output in target/`log_name`."""
+    assert BINARY.exists(), f"{BINARY} is missing: build it with `cargo build --release -p planner-node`"
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="patrol_planner=info,warn")
+    log = open(ROOT / "target" / log_name, "w")
+    proc = subprocess.Popen([str(BINARY), "--params-file", str(params_file)], env=env, stdout=log, stderr=log)
+    proc.log = log
+    return proc
+
+
+def stop_node(proc):
+    """Ctrl-C, as a user would; the node must exit cleanly and soon."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        code = proc.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise AssertionError("patrol_planner did not stop within 15 s of Ctrl-C")
+    finally:
+        proc.log.close()
+    assert code == 0, f"patrol_planner exited with {code}; see {proc.log.name}"
 
 
 @pytest.fixture(scope="session")
 def ros():
-    assert BINARY.exists(), f"{BINARY} is missing: build it with `cargo build --release -p planner-node`"
     domain = domain_id()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="patrol_planner=info,warn")
-    log = open(ROOT / "target" / "patrol_planner_test.log", "w")
-    proc = subprocess.Popen([str(BINARY), "--params-file", str(ROOT / "config" / "planner.yaml")], env=env, stdout=log, stderr=log)
+    proc = start_node(domain, ROOT / "config" / "planner.yaml", "patrol_planner_test.log")
     r = Ros(domain)
     try:
         yield r
     finally:
         r.close()
-        proc.send_signal(signal.SIGINT)
-        try:
-            code = proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            raise AssertionError("patrol_planner did not stop within 15 s of Ctrl-C")
-        log.close()
-        assert code == 0, f"patrol_planner exited with {code}; see target/patrol_planner_test.log"
-        assert proc.returncode is not None
+        stop_node(proc)
 
 
 def stamped(x, y, yaw=0.0, frame="map"):

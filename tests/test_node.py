@@ -1,8 +1,8 @@
 """patrol_planner checked from outside, as a ROS 2 user's stack would use it: the bundled map,
 goals in and /plan out, bad input with its /diagnostics code, a flood of goals, and a
-1000 x 1000 map over DDS. (Service answers from ros2-client do not reach Fast DDS clients yet,
-see the README's known limitations, so GetPlan and `ros2 param set` are not tested from rclpy.) Collisions are checked with this file's
-own code against the map this file published, not with the node's."""
+1000 x 1000 map over DDS (GetPlan and the parameters: test_services.py; no map yet:
+test_no_map.py). Collisions are checked with this file's own code against the map this file
+published, not with the node's."""
 import math
 
 import numpy as np

@@ -1,0 +1,113 @@
+"""patrol_planner's services from outside, with rclpy's own clients (Fast DDS), as `ros2 service
+call` and `ros2 param set` use them: GetPlan on /patrol_planner/make_plan (a plan well over one
+datagram, so the reply is fragmented on the wire), the parameter services switching the planner
+at run time and refusing bad values with a reason, and the node's own log lines on /rosout.
+Runs after test_node.py, on the same node, and leaves the planner as it found it."""
+import math
+
+from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
+from rclpy.serialization import serialize_message
+from nav_msgs.srv import GetPlan
+
+from conftest import stamped
+from test_node import ORIGIN, assert_collision_free, plan_to, use_test_map, world
+
+MAKE_PLAN = "/patrol_planner/make_plan"
+
+
+def call(ros, srv_type, name, request, timeout=20):
+    client = ros.node.create_client(srv_type, name)
+    try:
+        ros.spin_until(lambda: client.service_is_ready(), 20, f"the service {name}")
+        future = client.call_async(request)
+        ros.spin_until(future.done, timeout, f"the answer of {name}")
+        return future.result()
+    finally:
+        ros.node.destroy_client(client)
+
+
+def get_plan(ros, start, goal, tolerance=0.0):
+    req = GetPlan.Request()
+    req.start, req.goal, req.tolerance = stamped(*start), stamped(*goal), float(tolerance)
+    return call(ros, GetPlan, MAKE_PLAN, req).plan
+
+
+def set_param(ros, name, value):
+    if isinstance(value, str):
+        v = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value)
+    else:
+        v = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
+    req = SetParameters.Request(parameters=[Parameter(name=name, value=v)])
+    return call(ros, SetParameters, "/patrol_planner/set_parameters", req).results[0]
+
+
+def get_param(ros, name):
+    return call(ros, GetParameters, "/patrol_planner/get_parameters", GetParameters.Request(names=[name])).values[0]
+
+
+def test_get_plan_answers_with_a_collision_free_plan(ros):
+    grid = use_test_map(ros)
+    start, goal = world(1.0, 1.0), world(11.5, 7.0)
+    plan = get_plan(ros, start, goal)
+    assert plan.header.frame_id == "map" and plan.poses
+    first, last = plan.poses[0].pose.position, plan.poses[-1].pose.position
+    assert math.hypot(first.x - start[0], first.y - start[1]) < 1e-6, "the plan starts at the request's start"
+    assert math.hypot(last.x - goal[0], last.y - goal[1]) < 1e-6, "the plan ends at the request's goal"
+    assert max(p.pose.position.y for p in plan.poses) > ORIGIN[1] + 6.0, "the plan goes round the wall"
+    assert_collision_free(plan, grid)
+    # The reply went out in fragments (RustDDS fragments anything over ~1.4 KB): this is what
+    # third_party/rustdds's patch makes work.
+    assert len(serialize_message(GetPlan.Response(plan=plan))) > 4000
+
+
+def test_get_plan_failure_is_an_empty_plan_with_its_code(ros):
+    use_test_map(ros)
+    i = len(ros.diagnostics)
+    plan = get_plan(ros, world(1.0, 1.0), world(5.5, 3.0))  # inside the wall
+    assert plan.poses == []
+    ros.wait_code(i, "GOAL_OCCUPIED")
+    i = len(ros.diagnostics)
+    assert get_plan(ros, world(1.0, 1.0), (float("nan"), 0.0)).poses == []
+    ros.wait_code(i, "INVALID_INPUT")
+    # And the service keeps answering.
+    assert get_plan(ros, world(1.0, 1.0), world(3.0, 6.0)).poses
+
+
+def test_parameters_switch_the_planner_and_refuse_bad_values(ros):
+    grid = use_test_map(ros)
+    names = call(ros, ListParameters, "/patrol_planner/list_parameters", ListParameters.Request()).result.names
+    assert {"planner", "max_planning_time", "tolerance"} <= set(names)
+    default = get_param(ros, "planner").string_value
+    assert default == "mocmcso", "config/planner.yaml's planner"
+    try:
+        for name in ["astar", "imga"]:
+            assert set_param(ros, "planner", name).successful
+            assert get_param(ros, "planner").string_value == name
+            i = len(ros.diagnostics)
+            path = plan_to(ros, world(11.0, 6.5))
+            assert_collision_free(path, grid)
+            _, _, values = ros.wait_code(i, "NONE")
+            assert values["planner"] == name, "the next plan uses the planner just set"
+        refused = set_param(ros, "planner", "no_such_planner")
+        assert not refused.successful and "unknown planner" in refused.reason and "mocmcso" in refused.reason
+        assert get_param(ros, "planner").string_value == "imga", "a refused value changes nothing"
+        refused = set_param(ros, "max_planning_time", -1.0)
+        assert not refused.successful and refused.reason
+    finally:
+        assert set_param(ros, "planner", default).successful
+
+
+def test_the_nodes_own_log_lines_reach_rosout(ros):
+    use_test_map(ros)
+    logs = []
+    ros.node.create_subscription(Log, "/rosout", logs.append, 100)
+    ros.wait_matched(ros.goal_pub, "/goal_pose")
+
+    def warned():
+        ros.goal_pub.publish(stamped(*world(5.5, 3.0)))  # in the wall: the node logs a warning
+        ros.spin_for(1.0)
+        return next((m for m in logs if m.name == "patrol_planner" and m.level == Log.WARN and "GOAL_OCCUPIED" in m.msg), None)
+
+    line = ros.spin_until(warned, 30, "a WARN from patrol_planner on /rosout")
+    assert line.file.endswith(".rs") and line.line > 0
