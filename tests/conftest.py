@@ -22,9 +22,10 @@ BINARY = ROOT / "target" / "release" / "patrol_planner"
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
-def domain_id():
-    # One domain per test run (0..232 are valid; stay clear of 0, the default).
-    return 100 + os.getpid() % 100
+def domain_id(offset=0):
+    """One domain per test run (0..232 are valid; stay clear of 0, the default); a test module
+    that starts binaries of its own uses `offset` to keep them apart from the session node."""
+    return 100 + (os.getpid() + offset) % 100
 
 
 class Ros:

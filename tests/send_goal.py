@@ -2,9 +2,11 @@
 
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20   # latency
+    .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --service
 
 It publishes the start on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
-and waits for /plan and /diagnostics. Use the node's ROS_DOMAIN_ID."""
+and waits for /plan and /diagnostics; with --service it asks /patrol_planner/make_plan (GetPlan)
+instead and times the call. Use the node's ROS_DOMAIN_ID."""
 import argparse
 import statistics
 import time
@@ -27,9 +29,15 @@ def main():
     ap.add_argument("--start", nargs=2, type=float, required=True, metavar=("X", "Y"))
     ap.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"))
     ap.add_argument("--repeat", type=int, default=1, help="send the goal this many times and report the median latency")
+    ap.add_argument("--service", action="store_true", help="call /patrol_planner/make_plan instead of publishing goals")
     args = ap.parse_args()
     rclpy.init()
     node = rclpy.create_node("send_goal")
+    if args.service:
+        call_service(node, args)
+        node.destroy_node()
+        rclpy.shutdown()
+        return
     latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
     plans, diags = [], []
     node.create_subscription(Path, "/plan", lambda m: plans.append((time.monotonic(), m)), latched)
@@ -84,6 +92,34 @@ def main():
               f"max {1e3 * max(latencies):.1f} ms")
     node.destroy_node()
     rclpy.shutdown()
+
+
+def call_service(node, args):
+    from nav_msgs.srv import GetPlan
+
+    client = node.create_client(GetPlan, "/patrol_planner/make_plan")
+    if not client.wait_for_service(timeout_sec=20):
+        raise SystemExit("no /patrol_planner/make_plan (same ROS_DOMAIN_ID?)")
+    req = GetPlan.Request()
+    for pose, (x, y) in [(req.start, args.start), (req.goal, args.goal)]:
+        pose.header.frame_id = "map"
+        pose.pose.position.x, pose.pose.position.y = x, y
+        pose.pose.orientation.w = 1.0
+    latencies = []
+    for _ in range(args.repeat):
+        sent = time.monotonic()
+        future = client.call_async(req)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=30)
+        if not future.done():
+            print("no answer within 30 s")
+            continue
+        latencies.append(time.monotonic() - sent)
+        plan = future.result().plan
+        if args.repeat == 1:
+            print(f"make_plan: {len(plan.poses)} poses in {1e3 * latencies[-1]:.1f} ms" + ("" if plan.poses else " (empty: see /diagnostics)"))
+    if args.repeat > 1 and latencies:
+        print(f"GetPlan round trip over {len(latencies)} calls: median {1e3 * statistics.median(latencies):.1f} ms, "
+              f"max {1e3 * max(latencies):.1f} ms")
 
 
 if __name__ == "__main__":

@@ -15,8 +15,7 @@ from test_services import get_plan
 
 @pytest.fixture(scope="module")
 def bare(tmp_path_factory):
-    # A domain of its own, away from the session node's (domain_id() + 50, within 100..199).
-    domain = 100 + (domain_id() - 100 + 50) % 100
+    domain = domain_id(50)  # away from the session node's
     params = tmp_path_factory.mktemp("no_map") / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n    follow_plan: false\n')
     proc = start_node(domain, params, "patrol_planner_no_map_test.log")

@@ -1,12 +1,18 @@
 //! The chassis side of patrol-planner, as pure functions and small state machines: twist limits
 //! (the patrol car's 0.6 m/s and 0.4 rad/s, with acceleration limits), differential-drive wheel
-//! kinematics, a command watchdog, a simulated unicycle chassis, and a path follower. No ROS, no
-//! I/O, no clock: callers pass the time step, so everything here is tested and property-tested
-//! alone. The `chassis_bridge` binary and the node's follower wrap these.
+//! kinematics, a command watchdog, a simulated unicycle chassis, a path follower, the line
+//! protocol to a motor controller and encoder odometry. No ROS and no clock: callers pass the time
+//! step, so everything here is tested and property-tested alone. The one module with I/O is
+//! `serial` (the serial back end's device). The `chassis_bridge` binary and the node's follower
+//! wrap these.
 
+pub mod chassis;
 pub mod follower;
 pub mod kinematics;
 pub mod limits;
+pub mod odometry;
+pub mod protocol;
+pub mod serial;
 pub mod sim;
 pub mod watchdog;
 

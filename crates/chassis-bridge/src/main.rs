@@ -1,20 +1,29 @@
-//! `chassis_bridge`: the ROS 2 edge of the chassis. Subscribes `/cmd_vel` (geometry_msgs/Twist)
-//! and `/patrol_planner/twist_limits`; clamps every command (limits.rs) and stops when commands
-//! stop (watchdog.rs); publishes the wheel speeds on `/wheel_cmd` (std_msgs/Float64MultiArray,
-//! [left, right] in rad/s); with the `sim` back end it drives the simulated chassis (sim.rs) and
-//! publishes `/odom` (nav_msgs/Odometry, odom -> base_link).
+//! `chassis_bridge`: the ROS 2 edge of the chassis. Subscribes `/cmd_vel` (geometry_msgs/Twist,
+//! or TwistStamped with `enable_stamped_cmd_vel`, as Jazzy's diff_drive_controller takes it) and
+//! `/patrol_planner/twist_limits`; clamps every command (limits.rs) and stops when commands stop
+//! (watchdog.rs); publishes the wheel speeds on `/wheel_cmd` (std_msgs/Float64MultiArray,
+//! [left, right] in rad/s) and sends them to the chassis back end (chassis.rs): `sim`, the
+//! simulated car, or `serial`, a motor controller on a serial line (serial.rs). Either way the
+//! odometry comes back on `/odom` (nav_msgs/Odometry, odom -> base_link).
+//!
+//! A serial controller that cannot be opened, goes away or stops reporting is logged and retried;
+//! `/odom` pauses meanwhile (so the planner's follower stops on stale odometry) and the bridge
+//! keeps serving.
 //!
 //! Usage: `chassis_bridge [--params-file FILE]` (default `config/chassis.yaml` if present).
 
 use anyhow::{bail, Context as _, Result};
+use chassis_bridge::chassis::{Chassis, ChassisError, Odometry2, SimChassis};
 use chassis_bridge::kinematics::DiffDrive;
 use chassis_bridge::limits::TwistLimits;
-use chassis_bridge::sim::{Pose, Unicycle};
+use chassis_bridge::serial::{SerialChassis, SerialConfig};
+use chassis_bridge::sim::Pose;
 use chassis_bridge::watchdog::{Verdict, Watchdog};
 use chassis_bridge::Twist2;
-use log::{info, warn};
+use log::{error, info, warn};
 use patrol_msgs::geometry_msgs::{
-    Point, Pose as PoseMsg, PoseWithCovariance, Quaternion, Twist, TwistWithCovariance, Vector3,
+    Point, Pose as PoseMsg, PoseWithCovariance, Quaternion, Twist, TwistStamped,
+    TwistWithCovariance, Vector3,
 };
 use patrol_msgs::nav_msgs::Odometry;
 use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
@@ -24,12 +33,20 @@ use ros2_client::{
 };
 use serde::Deserialize;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum Backend {
+    Sim,
+    Serial,
+}
 
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 struct Params {
-    backend: String,
+    backend: Backend,
+    enable_stamped_cmd_vel: bool,
     cmd_timeout: f64,
     rate_hz: f64,
     limits: TwistLimits,
@@ -37,12 +54,16 @@ struct Params {
     initial_pose: [f64; 3],
     odom_frame: String,
     base_frame: String,
+    serial: SerialConfig,
+    feedback_timeout: f64,
+    reconnect_interval: f64,
 }
 
 impl Default for Params {
     fn default() -> Self {
         Self {
-            backend: "sim".into(),
+            backend: Backend::Sim,
+            enable_stamped_cmd_vel: false,
             cmd_timeout: 0.5,
             rate_hz: 50.0,
             limits: TwistLimits::default(),
@@ -50,6 +71,9 @@ impl Default for Params {
             initial_pose: [0.1, 0.1, 0.0],
             odom_frame: "odom".into(),
             base_frame: "base_link".into(),
+            serial: SerialConfig::default(),
+            feedback_timeout: 0.5,
+            reconnect_interval: 1.0,
         }
     }
 }
@@ -63,22 +87,25 @@ fn load() -> Result<Params> {
     } else {
         Params::default()
     };
-    if params.backend != "sim" {
-        bail!(
-            "backend `{}` is not available: only `sim` is implemented",
-            params.backend
-        );
-    }
     let positive = |v: f64| v.is_finite() && v > 0.0;
     if !params.limits.is_valid()
         || !positive(params.cmd_timeout)
         || !positive(params.rate_hz)
         || params.rate_hz > 1000.0
+        || !positive(params.feedback_timeout)
+        || !positive(params.reconnect_interval)
     {
-        bail!("limits, cmd_timeout and rate_hz (at most 1000) must be finite and positive");
+        bail!("limits, cmd_timeout, feedback_timeout, reconnect_interval and rate_hz (at most 1000) must be finite and positive");
     }
     if !positive(params.drive.wheel_radius) || !positive(params.drive.wheel_separation) {
         bail!("wheel_radius and wheel_separation must be positive");
+    }
+    let enc = &params.serial.encoders;
+    if !positive(enc.ticks_per_rev) || !positive(enc.max_wheel_speed) {
+        bail!("serial.encoders: ticks_per_rev and max_wheel_speed must be positive");
+    }
+    if params.initial_pose.iter().any(|v| !v.is_finite()) {
+        bail!("initial_pose must be finite");
     }
     Ok(params)
 }
@@ -95,6 +122,92 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// The back end, and when to try opening it again after it failed.
+struct Link {
+    chassis: Option<Box<dyn Chassis + Send>>,
+    retry_at: Instant,
+    /// An outage is logged once when it starts and once when it ends, not every retry.
+    outage_logged: bool,
+    last_odometry: Instant,
+    feedback_lost: bool,
+}
+
+impl Link {
+    fn open(p: &Params, start: Pose) -> Result<Box<dyn Chassis + Send>, ChassisError> {
+        Ok(match p.backend {
+            Backend::Sim => Box::new(SimChassis::new(p.drive, start)),
+            Backend::Serial => Box::new(SerialChassis::open(&p.serial, p.drive, start)?),
+        })
+    }
+
+    /// Drives the wheels for one period; the odometry when there is news.
+    fn drive(
+        &mut self,
+        p: &Params,
+        left: f64,
+        right: f64,
+        dt: f64,
+        pose: Pose,
+    ) -> Option<Odometry2> {
+        let now = Instant::now();
+        if self.chassis.is_none() && now >= self.retry_at {
+            match Self::open(p, pose) {
+                Ok(c) => {
+                    if self.outage_logged {
+                        info!("{}: open again", p.serial.device);
+                    }
+                    self.outage_logged = false;
+                    self.last_odometry = now;
+                    self.chassis = Some(c);
+                }
+                Err(e) => {
+                    if !self.outage_logged {
+                        error!(
+                            "{e}; retrying every {} s, /odom paused",
+                            p.reconnect_interval
+                        );
+                        self.outage_logged = true;
+                    }
+                    self.retry_at = now + Duration::from_secs_f64(p.reconnect_interval);
+                }
+            }
+        }
+        let chassis = self.chassis.as_mut()?;
+        let result = chassis.drive(left, right, dt);
+        for w in chassis.take_warnings() {
+            warn!("{w}");
+        }
+        match result {
+            Ok(Some(odo)) => {
+                if self.feedback_lost {
+                    info!("odometry from the chassis again");
+                    self.feedback_lost = false;
+                }
+                self.last_odometry = now;
+                Some(odo)
+            }
+            Ok(None) => {
+                let silent = now.duration_since(self.last_odometry).as_secs_f64();
+                if silent > p.feedback_timeout && !self.feedback_lost {
+                    warn!("no odometry from the chassis for {silent:.2} s: /odom paused");
+                    self.feedback_lost = true;
+                }
+                None
+            }
+            Err(e) => {
+                error!(
+                    "{e}; reopening every {} s, /odom paused",
+                    p.reconnect_interval
+                );
+                self.outage_logged = true;
+                self.chassis = None;
+                self.retry_at = now + Duration::from_secs_f64(p.reconnect_interval);
+                None
+            }
+        }
+    }
+}
+
 async fn run(p: Params) -> Result<()> {
     let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(
@@ -102,19 +215,49 @@ async fn run(p: Params) -> Result<()> {
         NodeOptions::new().enable_rosout(true),
     )?;
     let spinner = tokio::spawn(node.spinner()?.spin());
+    ros_edge::logging::forward_to_rosout(node.logging_handle());
     // Every task holding a DDS reader or writer, so that shutdown can end them before the
     // node and its participant go (otherwise RustDDS logs an error for each endpoint).
     let mut tasks = tokio::task::JoinSet::new();
-    ros_edge::logging::forward_to_rosout(node.logging_handle());
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
     let volatile = ros_edge::reliable(10, Durability::Volatile);
     let latched = ros_edge::reliable(1, Durability::TransientLocal);
-    let cmd_topic = node.create_topic(
-        &Name::new("/", "cmd_vel")?,
-        MessageTypeName::new("geometry_msgs", "Twist"),
-        &volatile,
-    )?;
-    let cmd_sub = node.create_subscription::<Twist>(&cmd_topic, Some(best_effort))?;
+
+    // The latest command (and whether one arrived since the last tick), and the forwarded limits.
+    let latest: Arc<Mutex<(Twist2, bool)>> = Arc::new(Mutex::new((Twist2::STOP, false)));
+    let cmd_name = Name::new("/", "cmd_vel")?;
+    if p.enable_stamped_cmd_vel {
+        let topic = node.create_topic(
+            &cmd_name,
+            MessageTypeName::new("geometry_msgs", "TwistStamped"),
+            &volatile,
+        )?;
+        let sub = node.create_subscription::<TwistStamped>(&topic, Some(best_effort.clone()))?;
+        let l = latest.clone();
+        tasks.spawn(async move {
+            loop {
+                if let Ok((t, _)) = sub.async_take().await {
+                    *l.lock().expect("lock") =
+                        (Twist2::new(t.twist.linear.x, t.twist.angular.z), true);
+                }
+            }
+        });
+    } else {
+        let topic = node.create_topic(
+            &cmd_name,
+            MessageTypeName::new("geometry_msgs", "Twist"),
+            &volatile,
+        )?;
+        let sub = node.create_subscription::<Twist>(&topic, Some(best_effort.clone()))?;
+        let l = latest.clone();
+        tasks.spawn(async move {
+            loop {
+                if let Ok((t, _)) = sub.async_take().await {
+                    *l.lock().expect("lock") = (Twist2::new(t.linear.x, t.angular.z), true);
+                }
+            }
+        });
+    }
     let lim_topic = node.create_topic(
         &Name::new("/patrol_planner", "twist_limits")?,
         MessageTypeName::new("geometry_msgs", "Twist"),
@@ -135,17 +278,7 @@ async fn run(p: Params) -> Result<()> {
     )?;
     let odom_pub = node.create_publisher::<Odometry>(&odom_topic, Some(volatile.clone()))?;
 
-    // The latest command (and whether one arrived since the last tick), and the forwarded limits.
-    let latest: Arc<Mutex<(Twist2, bool)>> = Arc::new(Mutex::new((Twist2::STOP, false)));
     let forwarded: Arc<Mutex<Option<TwistLimits>>> = Arc::new(Mutex::new(None));
-    let l = latest.clone();
-    tasks.spawn(async move {
-        loop {
-            if let Ok((t, _)) = cmd_sub.async_take().await {
-                *l.lock().expect("lock") = (Twist2::new(t.linear.x, t.angular.z), true);
-            }
-        }
-    });
     let f = forwarded.clone();
     tasks.spawn(async move {
         loop {
@@ -168,12 +301,31 @@ async fn run(p: Params) -> Result<()> {
     let dt = 1.0 / p.rate_hz;
     let mut watchdog = Watchdog::new(p.cmd_timeout);
     let [x, y, yaw] = p.initial_pose;
-    let mut car = Unicycle::new(Pose { x, y, yaw });
+    let mut pose = Pose { x, y, yaw };
+    let mut link = Link {
+        chassis: None,
+        retry_at: Instant::now(),
+        outage_logged: false,
+        last_odometry: Instant::now(),
+        feedback_lost: false,
+    };
+    // The last command sent, for the acceleration limits.
+    let mut sent = Twist2::STOP;
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(dt));
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     info!(
-        "chassis_bridge (sim) on ROS_DOMAIN_ID {domain}: {} Hz, timeout {} s",
-        p.rate_hz, p.cmd_timeout
+        "chassis_bridge ({}) on ROS_DOMAIN_ID {domain}: {} Hz, timeout {} s, /cmd_vel as {}",
+        match p.backend {
+            Backend::Sim => "sim".to_string(),
+            Backend::Serial => format!("serial {}", p.serial.device),
+        },
+        p.rate_hz,
+        p.cmd_timeout,
+        if p.enable_stamped_cmd_vel {
+            "TwistStamped"
+        } else {
+            "Twist"
+        }
     );
     loop {
         tokio::select! {
@@ -195,80 +347,32 @@ async fn run(p: Params) -> Result<()> {
             None => p.limits,
         };
         // Fresh commands are clamped and ramped; a tripped watchdog stops the wheels at once.
-        let twist = match watchdog.tick(dt) {
-            Verdict::Drive => limits.apply(cmd, car.twist, dt),
+        sent = match watchdog.tick(dt) {
+            Verdict::Drive => limits.apply(cmd, sent, dt),
             Verdict::JustTripped => {
                 warn!("no /cmd_vel for {} s: wheels to zero", p.cmd_timeout);
                 Twist2::STOP
             }
             Verdict::Stopped => Twist2::STOP,
         };
-        let (left, right) = p.drive.wheel_speeds(twist);
-        let wheels = Float64MultiArray {
-            layout: MultiArrayLayout {
-                dim: vec![MultiArrayDimension {
-                    label: "left_right_rad_s".into(),
-                    size: 2,
-                    stride: 2,
-                }],
-                data_offset: 0,
-            },
-            data: vec![left, right],
-        };
-        if let Err(e) = wheel_pub.async_publish(wheels).await {
+        let (left, right) = p.drive.wheel_speeds(sent);
+        if let Err(e) = wheel_pub.async_publish(wheel_msg(left, right)).await {
             warn!("/wheel_cmd: {e:?}");
         }
-        car.step(twist, dt);
-        let pose = car.pose;
-        let odom = Odometry {
-            header: Header {
-                stamp: ros_edge::now(),
-                frame_id: p.odom_frame.clone(),
-            },
-            child_frame_id: p.base_frame.clone(),
-            pose: PoseWithCovariance {
-                pose: PoseMsg {
-                    position: Point {
-                        x: pose.x,
-                        y: pose.y,
-                        z: 0.0,
-                    },
-                    orientation: Quaternion {
-                        x: 0.0,
-                        y: 0.0,
-                        z: (pose.yaw / 2.0).sin(),
-                        w: (pose.yaw / 2.0).cos(),
-                    },
-                },
-                ..Default::default()
-            },
-            twist: TwistWithCovariance {
-                twist: Twist {
-                    linear: Vector3 {
-                        x: twist.linear,
-                        y: 0.0,
-                        z: 0.0,
-                    },
-                    angular: Vector3 {
-                        x: 0.0,
-                        y: 0.0,
-                        z: twist.angular,
-                    },
-                },
-                ..Default::default()
-            },
-        };
-        if let Err(e) = odom_pub.async_publish(odom).await {
-            warn!("/odom: {e:?}");
+        if let Some(odo) = link.drive(&p, left, right, dt, pose) {
+            pose = odo.pose;
+            if let Err(e) = odom_pub.async_publish(odom_msg(&p, odo)).await {
+                warn!("/odom: {e:?}");
+            }
         }
     }
     info!("chassis_bridge stopping: wheels to zero");
-    let _ = wheel_pub
-        .async_publish(Float64MultiArray {
-            layout: MultiArrayLayout::default(),
-            data: vec![0.0, 0.0],
-        })
-        .await;
+    let _ = wheel_pub.async_publish(wheel_msg(0.0, 0.0)).await;
+    if let Some(chassis) = link.chassis.as_mut() {
+        if let Err(e) = chassis.stop() {
+            error!("stopping the chassis: {e}");
+        }
+    }
     ros_edge::logging::stop_forwarding();
     tasks.shutdown().await;
     // Dropping the node stops its spinner, which holds the node's own endpoints (parameter
@@ -276,4 +380,60 @@ async fn run(p: Params) -> Result<()> {
     drop(node);
     let _ = spinner.await;
     Ok(())
+}
+
+fn wheel_msg(left: f64, right: f64) -> Float64MultiArray {
+    Float64MultiArray {
+        layout: MultiArrayLayout {
+            dim: vec![MultiArrayDimension {
+                label: "left_right_rad_s".into(),
+                size: 2,
+                stride: 2,
+            }],
+            data_offset: 0,
+        },
+        data: vec![left, right],
+    }
+}
+
+fn odom_msg(p: &Params, odo: Odometry2) -> Odometry {
+    let Odometry2 { pose, twist } = odo;
+    Odometry {
+        header: Header {
+            stamp: ros_edge::now(),
+            frame_id: p.odom_frame.clone(),
+        },
+        child_frame_id: p.base_frame.clone(),
+        pose: PoseWithCovariance {
+            pose: PoseMsg {
+                position: Point {
+                    x: pose.x,
+                    y: pose.y,
+                    z: 0.0,
+                },
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: (pose.yaw / 2.0).sin(),
+                    w: (pose.yaw / 2.0).cos(),
+                },
+            },
+            ..Default::default()
+        },
+        twist: TwistWithCovariance {
+            twist: Twist {
+                linear: Vector3 {
+                    x: twist.linear,
+                    y: 0.0,
+                    z: 0.0,
+                },
+                angular: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: twist.angular,
+                },
+            },
+            ..Default::default()
+        },
+    }
 }

@@ -27,7 +27,9 @@ use chassis_bridge::follower::{Follower, Status as FollowStatus};
 use chassis_bridge::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
-use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
+use patrol_msgs::geometry_msgs::{
+    PoseStamped, PoseWithCovarianceStamped, Twist, TwistStamped, Vector3,
+};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::std_msgs::Header;
 use patrol_msgs::visualization_msgs::MarkerArray;
@@ -221,15 +223,27 @@ pub async fn run(params: NodeParams) -> Result<()> {
         service_qos.clone(),
         service_qos,
     )?;
-    let cmd_topic = topic(
-        &mut node,
-        "/",
-        "cmd_vel",
-        "geometry_msgs",
-        "Twist",
-        &volatile,
-    )?;
-    let cmd_pub = Arc::new(node.create_publisher::<Twist>(&cmd_topic, Some(volatile.clone()))?);
+    let cmd_pub = if params.enable_stamped_cmd_vel {
+        let t = topic(
+            &mut node,
+            "/",
+            "cmd_vel",
+            "geometry_msgs",
+            "TwistStamped",
+            &volatile,
+        )?;
+        CmdVel::Stamped(Arc::new(node.create_publisher(&t, Some(volatile.clone()))?))
+    } else {
+        let t = topic(
+            &mut node,
+            "/",
+            "cmd_vel",
+            "geometry_msgs",
+            "Twist",
+            &volatile,
+        )?;
+        CmdVel::Plain(Arc::new(node.create_publisher(&t, Some(volatile.clone()))?))
+    };
     let limits_topic = topic(
         &mut node,
         "/patrol_planner",
@@ -421,7 +435,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
                 let stop = next.is_none();
                 *s.follower.lock().expect("lock") = next;
                 if stop {
-                    o.drive(Twist2::STOP).await;
+                    o.drive(&s, Twist2::STOP).await;
                 }
             }
         }
@@ -530,7 +544,7 @@ async fn follow(s: Arc<Shared>, o: Outputs) {
         };
         let applied = s.params.twist_limits.apply(cmd, previous, dt);
         previous = applied;
-        o.drive(applied).await;
+        o.drive(&s, applied).await;
     }
 }
 
@@ -676,13 +690,20 @@ struct Outputs {
     plan: Arc<Publisher<Path>>,
     diagnostics: Arc<Publisher<DiagnosticArray>>,
     pareto: Arc<Publisher<MarkerArray>>,
-    cmd_vel: Arc<Publisher<Twist>>,
+    cmd_vel: CmdVel,
+}
+
+/// `/cmd_vel` as Twist, or as TwistStamped (`enable_stamped_cmd_vel`).
+#[derive(Clone)]
+enum CmdVel {
+    Plain(Arc<Publisher<Twist>>),
+    Stamped(Arc<Publisher<TwistStamped>>),
 }
 
 impl Outputs {
     /// A velocity command on `/cmd_vel`.
-    async fn drive(&self, t: Twist2) {
-        let msg = Twist {
+    async fn drive(&self, s: &Shared, t: Twist2) {
+        let twist = Twist {
             linear: Vector3 {
                 x: t.linear,
                 y: 0.0,
@@ -694,8 +715,20 @@ impl Outputs {
                 z: t.angular,
             },
         };
-        if let Err(e) = self.cmd_vel.async_publish(msg).await {
-            warn!("/cmd_vel: {e:?}");
+        let sent = match &self.cmd_vel {
+            CmdVel::Plain(p) => p.async_publish(twist).await.map_err(|e| format!("{e:?}")),
+            CmdVel::Stamped(p) => {
+                let header = Header {
+                    stamp: ros_edge::now(),
+                    frame_id: s.params.robot_base_frame.clone(),
+                };
+                p.async_publish(TwistStamped { header, twist })
+                    .await
+                    .map_err(|e| format!("{e:?}"))
+            }
+        };
+        if let Err(e) = sent {
+            warn!("/cmd_vel: {e}");
         }
     }
 

@@ -31,6 +31,11 @@ pub struct NodeParams {
     pub twist_limits: TwistLimits,
     /// The path follower.
     pub follower: FollowerParams,
+    /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
+    /// expects; Nav2's parameter of the same name) instead of Twist.
+    pub enable_stamped_cmd_vel: bool,
+    /// The frame of stamped `/cmd_vel` commands (Nav2's name).
+    pub robot_base_frame: String,
     /// Follower rate (Hz).
     pub control_rate_hz: f64,
     /// The follower stops when `/odom` is older than this (s).
@@ -48,6 +53,8 @@ impl Default for NodeParams {
             follow_plan: true,
             twist_limits: TwistLimits::default(),
             follower: FollowerParams::default(),
+            enable_stamped_cmd_vel: false,
+            robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
             pose_timeout: 0.5,
         }

@@ -1,0 +1,76 @@
+"""`enable_stamped_cmd_vel` from outside: the node publishes /cmd_vel as geometry_msgs/TwistStamped
+(in robot_base_frame, stamped now), as Jazzy's diff_drive_controller takes it, and chassis_bridge
+with the same setting drives on it. Both real binaries on a domain of their own, the sim back end
+closing the loop on the bundled map."""
+import math
+import os
+import signal
+import subprocess
+import time
+
+import pytest
+import rclpy
+from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Odometry
+
+from conftest import BINARY, ROOT, Ros, domain_id, stamped, start_node, stop_node
+
+BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
+GOAL = (2.5, 0.3)  # 2.4 m from the simulated car's start at (0.1, 0.1), round no obstacle
+
+
+@pytest.fixture(scope="module")
+def stamped_rig(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("stamped")
+    node_params = folder / "planner.yaml"
+    node_params.write_text(
+        f"patrol_planner:\n  ros__parameters:\n    map_yaml: {ROOT / 'config' / 'maps' / 'datacenter_100.yaml'}\n"
+        "    planner: astar\n    enable_stamped_cmd_vel: true\n    robot_base_frame: base_footprint\n"
+    )
+    bridge_params = folder / "chassis.yaml"
+    bridge_params.write_text("chassis_bridge:\n  ros__parameters:\n    enable_stamped_cmd_vel: true\n")
+    domain = domain_id(75)
+    node = start_node(domain, node_params, "patrol_planner_stamped_test.log")
+    log = open(ROOT / "target" / "chassis_bridge_stamped_test.log", "w")
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="chassis_bridge=info,warn")
+    bridge = subprocess.Popen([str(BRIDGE), "--params-file", str(bridge_params)], env=env, stdout=log, stderr=log)
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        yield ros
+    finally:
+        ros.close()
+        bridge.send_signal(signal.SIGINT)
+        assert bridge.wait(timeout=15) == 0
+        log.close()
+        stop_node(node)
+
+
+def test_stamped_cmd_vel_drives_the_car(stamped_rig):
+    ros = stamped_rig
+    odom, cmds = [], []
+    ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+    ros.node.create_subscription(TwistStamped, "/cmd_vel", cmds.append, 100)
+    ros.spin_until(lambda: odom, 20, "/odom from the simulated chassis")
+    ros.wait_matched(ros.goal_pub, "/goal_pose")
+
+    def planned():
+        before = len(ros.plans)
+        ros.goal_pub.publish(stamped(*GOAL))
+        ros.spin_for(1.0)
+        return any(p.poses for p in ros.plans[before:])
+
+    ros.spin_until(planned, 30, "a plan to the goal")
+
+    def arrived():
+        p = odom[-1].pose.pose.position
+        return math.hypot(p.x - GOAL[0], p.y - GOAL[1]) <= 0.15 and abs(odom[-1].twist.twist.linear.x) < 1e-3
+
+    ros.spin_until(arrived, 60, "the car to reach the goal on stamped commands")
+    moving = [c for c in cmds if c.twist.linear.x > 0.05]
+    assert moving, "no TwistStamped command moved the car"
+    now = time.time()
+    for c in cmds:
+        assert c.header.frame_id == "base_footprint"
+        stamp = c.header.stamp.sec + c.header.stamp.nanosec * 1e-9
+        assert now - 120 < stamp <= now + 1, "stamped with the current time"
+        assert abs(c.twist.linear.x) <= 0.6 + 1e-9 and abs(c.twist.angular.z) <= 0.4 + 1e-9
