@@ -3,10 +3,12 @@
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20   # latency
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --service
+    .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 30 --service --fresh
 
 It publishes the start on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
 and waits for /plan and /diagnostics; with --service it asks /patrol_planner/make_plan (GetPlan)
-instead and times the call. Use the node's ROS_DOMAIN_ID."""
+instead and times the call; --fresh makes a new client for every call, as each `ros2 service
+call` does, so discovery is part of the time. Use the node's ROS_DOMAIN_ID."""
 import argparse
 import statistics
 import time
@@ -30,6 +32,7 @@ def main():
     ap.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"))
     ap.add_argument("--repeat", type=int, default=1, help="send the goal this many times and report the median latency")
     ap.add_argument("--service", action="store_true", help="call /patrol_planner/make_plan instead of publishing goals")
+    ap.add_argument("--fresh", action="store_true", help="with --service: a new client for every call")
     args = ap.parse_args()
     rclpy.init()
     node = rclpy.create_node("send_goal")
@@ -97,9 +100,13 @@ def main():
 def call_service(node, args):
     from nav_msgs.srv import GetPlan
 
-    client = node.create_client(GetPlan, "/patrol_planner/make_plan")
-    if not client.wait_for_service(timeout_sec=20):
-        raise SystemExit("no /patrol_planner/make_plan (same ROS_DOMAIN_ID?)")
+    def new_client():
+        client = node.create_client(GetPlan, "/patrol_planner/make_plan")
+        if not client.wait_for_service(timeout_sec=20):
+            raise SystemExit("no /patrol_planner/make_plan (same ROS_DOMAIN_ID?)")
+        return client
+
+    client = new_client()
     req = GetPlan.Request()
     for pose, (x, y) in [(req.start, args.start), (req.goal, args.goal)]:
         pose.header.frame_id = "map"
@@ -107,6 +114,9 @@ def call_service(node, args):
         pose.pose.orientation.w = 1.0
     latencies = []
     for _ in range(args.repeat):
+        if args.fresh:
+            node.destroy_client(client)
+            client = new_client()
         sent = time.monotonic()
         future = client.call_async(req)
         rclpy.spin_until_future_complete(node, future, timeout_sec=30)

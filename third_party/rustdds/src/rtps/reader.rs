@@ -1434,7 +1434,16 @@ impl Reader {
       AckNack {
         reader_id: self.entity_id(),
         writer_id: remote_writer_guid.entity_id,
-        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(1)),
+        // patrol-planner patch: ask for sample 1 instead of sending an empty set. A writer
+        // that matched us first may already have sent its first samples, which we dropped
+        // as coming from an unknown writer; an empty preemptive ACKNACK requests nothing, so
+        // eProsima Fast DDS resent them only after its next periodic HEARTBEAT (3 s). Asking
+        // for 1 makes it resend now (or answer with a GAP or HEARTBEAT, if 1 is gone or not
+        // written yet).
+        reader_sn_state: SequenceNumberSet::from_base_and_set(
+          SequenceNumber::new(1),
+          &std::collections::BTreeSet::from([SequenceNumber::new(1)]),
+        ),
         count: acknack_count,
       },
       InfoDestination {

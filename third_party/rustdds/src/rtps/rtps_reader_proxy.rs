@@ -477,12 +477,18 @@ impl RtpsReaderProxy {
         }
         // sanity check
         if let Some(&high) = self.unsent_changes.iter().next_back() {
-          if high > last_available {
+          // patrol-planner patch: a request for just sample 1 is a reader's preemptive
+          // ACKNACK (see Reader::send_preemptive_acknack_to), normal before anything is written.
+          if high > last_available && high == SequenceNumber::new(1) {
+            debug!("ReaderProxy {:?} asks for 1 before it is written", self.remote_reader_guid);
+          } else if high > last_available {
             warn!(
               "ReaderProxy {:?} asks for {:?} but I have only up to {:?}. Truncating request. \
                ACKNACK = {:?}",
               self.remote_reader_guid, self.unsent_changes, last_available, acknack
             );
+          }
+          if high > last_available {
             // Requesting something which is not yet available is unreasonable.
             // Ignore the request from last_available + 1 onwards.
             self.unsent_changes.split_off(&last_available.plus_1());
