@@ -66,6 +66,10 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
         return math.hypot(p.x - GOAL[0], p.y - GOAL[1]) <= 0.15 and abs(odom[-1].twist.twist.linear.x) < 1e-3
 
     ros.spin_until(arrived, 60, "the car to reach the goal on stamped commands")
+    # The bridge also broadcasts odom -> base_link on /tf (tf2_msgs has no PyPI wheel to decode it
+    # here; its encoding is checked in msgs/tests/golden.rs): it is on the graph with its type.
+    published = dict(ros.node.get_publisher_names_and_types_by_node("chassis_bridge", "/"))
+    assert published.get("/tf") == ["tf2_msgs/msg/TFMessage"], published
     moving = [c for c in cmds if c.twist.linear.x > 0.05]
     assert moving, "no TwistStamped command moved the car"
     now = time.time()

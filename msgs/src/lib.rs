@@ -192,7 +192,37 @@ pub mod geometry_msgs {
         pub twist: Twist,
         pub covariance: Covariance,
     }
-    messages!(PoseStamped, PoseWithCovarianceStamped, Twist, TwistStamped);
+    /// geometry_msgs/Transform
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct Transform {
+        pub translation: Vector3,
+        pub rotation: Quaternion,
+    }
+    /// geometry_msgs/TransformStamped: `header.frame_id` is the parent frame.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct TransformStamped {
+        pub header: Header,
+        pub child_frame_id: String,
+        pub transform: Transform,
+    }
+    messages!(
+        PoseStamped,
+        PoseWithCovarianceStamped,
+        Twist,
+        TwistStamped,
+        TransformStamped
+    );
+}
+
+pub mod tf2_msgs {
+    use super::geometry_msgs::TransformStamped;
+    use super::*;
+    /// tf2_msgs/TFMessage: what `/tf` and `/tf_static` carry.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct TFMessage {
+        pub transforms: Vec<TransformStamped>,
+    }
+    messages!(TFMessage);
 }
 
 pub mod nav_msgs {

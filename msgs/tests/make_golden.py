@@ -6,7 +6,7 @@ from rclpy.serialization import serialize_message
 from builtin_interfaces.msg import Time
 from std_msgs.msg import Header, ColorRGBA, Float64MultiArray, MultiArrayDimension
 from geometry_msgs.msg import (Point, Pose, PoseStamped, PoseWithCovarianceStamped, Quaternion,
-                               Twist, TwistStamped, Vector3)
+                               Transform, TransformStamped, Twist, TwistStamped, Vector3)
 from nav_msgs.msg import OccupancyGrid, Path, Odometry
 from nav_msgs.srv import GetPlan
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -76,6 +76,9 @@ def messages():
     arr = Float64MultiArray(data=[1.5, -2.5])
     arr.layout.dim = [MultiArrayDimension(label="wheels", size=2, stride=2)]
     out["FLOAT64_MULTI_ARRAY"] = arr
+    out["TRANSFORM_STAMPED"] = TransformStamped(
+        header=header("odom"), child_frame_id="base_link",
+        transform=Transform(translation=Vector3(x=1.5, y=-2.25, z=0.0), rotation=Quaternion(x=0.0, y=0.0, z=0.6, w=0.8)))
     return out
 
 

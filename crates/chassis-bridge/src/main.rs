@@ -4,7 +4,8 @@
 //! (watchdog.rs); publishes the wheel speeds on `/wheel_cmd` (std_msgs/Float64MultiArray,
 //! [left, right] in rad/s) and sends them to the chassis back end (chassis.rs): `sim`, the
 //! simulated car, or `serial`, a motor controller on a serial line (serial.rs). Either way the
-//! odometry comes back on `/odom` (nav_msgs/Odometry, odom -> base_link).
+//! odometry comes back on `/odom` (nav_msgs/Odometry, odom -> base_link) and, with `publish_tf`,
+//! as the odom -> base_link transform on `/tf`, as diff_drive_controller publishes it.
 //!
 //! A serial controller that cannot be opened, goes away or stops reporting is logged and retried;
 //! `/odom` pauses meanwhile (so the planner's follower stops on stale odometry) and the bridge
@@ -22,11 +23,12 @@ use chassis_bridge::watchdog::{Verdict, Watchdog};
 use chassis_bridge::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::geometry_msgs::{
-    Point, Pose as PoseMsg, PoseWithCovariance, Quaternion, Twist, TwistStamped,
-    TwistWithCovariance, Vector3,
+    Point, Pose as PoseMsg, PoseWithCovariance, Quaternion, Transform, TransformStamped, Twist,
+    TwistStamped, TwistWithCovariance, Vector3,
 };
 use patrol_msgs::nav_msgs::Odometry;
 use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
+use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{
     qos::{Durability, History},
     MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
@@ -54,6 +56,7 @@ struct Params {
     initial_pose: [f64; 3],
     odom_frame: String,
     base_frame: String,
+    publish_tf: bool,
     serial: SerialConfig,
     feedback_timeout: f64,
     reconnect_interval: f64,
@@ -71,6 +74,7 @@ impl Default for Params {
             initial_pose: [0.1, 0.1, 0.0],
             odom_frame: "odom".into(),
             base_frame: "base_link".into(),
+            publish_tf: true,
             serial: SerialConfig::default(),
             feedback_timeout: 0.5,
             reconnect_interval: 1.0,
@@ -277,6 +281,18 @@ async fn run(p: Params) -> Result<()> {
         &volatile,
     )?;
     let odom_pub = node.create_publisher::<Odometry>(&odom_topic, Some(volatile.clone()))?;
+    // tf2's own QoS for /tf: reliable, volatile, depth 100.
+    let tf_qos = ros_edge::reliable(100, Durability::Volatile);
+    let tf_pub = if p.publish_tf {
+        let topic = node.create_topic(
+            &Name::new("/", "tf")?,
+            MessageTypeName::new("tf2_msgs", "TFMessage"),
+            &tf_qos,
+        )?;
+        Some(node.create_publisher::<TFMessage>(&topic, Some(tf_qos.clone()))?)
+    } else {
+        None
+    };
 
     let forwarded: Arc<Mutex<Option<TwistLimits>>> = Arc::new(Mutex::new(None));
     let f = forwarded.clone();
@@ -361,7 +377,13 @@ async fn run(p: Params) -> Result<()> {
         }
         if let Some(odo) = link.drive(&p, left, right, dt, pose) {
             pose = odo.pose;
-            if let Err(e) = odom_pub.async_publish(odom_msg(&p, odo)).await {
+            let odom = odom_msg(&p, odo);
+            if let Some(tf_pub) = &tf_pub {
+                if let Err(e) = tf_pub.async_publish(tf_msg(&odom)).await {
+                    warn!("/tf: {e:?}");
+                }
+            }
+            if let Err(e) = odom_pub.async_publish(odom).await {
                 warn!("/odom: {e:?}");
             }
         }
@@ -435,5 +457,56 @@ fn odom_msg(p: &Params, odo: Odometry2) -> Odometry {
             },
             ..Default::default()
         },
+    }
+}
+
+/// The odom -> base_link transform of an odometry message (same stamp, same pose).
+fn tf_msg(odom: &Odometry) -> TFMessage {
+    let pose = odom.pose.pose;
+    TFMessage {
+        transforms: vec![TransformStamped {
+            header: odom.header.clone(),
+            child_frame_id: odom.child_frame_id.clone(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: pose.position.x,
+                    y: pose.position.y,
+                    z: pose.position.z,
+                },
+                rotation: pose.orientation,
+            },
+        }],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_transform_is_the_odometry_pose() {
+        let p = Params::default();
+        let odo = Odometry2 {
+            pose: Pose {
+                x: 1.5,
+                y: -2.0,
+                yaw: 0.7,
+            },
+            twist: Twist2::new(0.3, 0.1),
+        };
+        let odom = odom_msg(&p, odo);
+        let tf = tf_msg(&odom);
+        let t = &tf.transforms[0];
+        assert_eq!(
+            (t.header.frame_id.as_str(), t.child_frame_id.as_str()),
+            ("odom", "base_link")
+        );
+        assert_eq!(t.header.stamp, odom.header.stamp);
+        assert_eq!(
+            (t.transform.translation.x, t.transform.translation.y),
+            (1.5, -2.0)
+        );
+        let q = t.transform.rotation;
+        assert!((2.0 * q.z.atan2(q.w) - 0.7).abs() < 1e-12);
     }
 }
