@@ -6,8 +6,13 @@
 //! `RUST_LOG` (default info).
 
 mod convert;
+mod follow;
+mod inputs;
 mod node;
+mod outputs;
 mod params;
+mod planning;
+mod state;
 
 use params::NodeParams;
 use std::process::ExitCode;

@@ -6,6 +6,8 @@ use anyhow::{Context, Result};
 use chassis_bridge::follower::FollowerParams;
 use chassis_bridge::limits::TwistLimits;
 use planner_core::config::PlannerConfig;
+use planner_core::registry;
+use ros2_client::ParameterValue;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -97,5 +99,24 @@ impl NodeParams {
             anyhow::bail!("{}: map_to_odom must be finite", path.display());
         }
         Ok(params)
+    }
+}
+
+/// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
+pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), String> {
+    match (name, value) {
+        ("planner", ParameterValue::String(s)) => {
+            registry::check_name(s).map_err(|e| e.to_string())
+        }
+        ("max_planning_time" | "tolerance", ParameterValue::Double(v))
+            if v.is_finite() && *v >= 0.0 =>
+        {
+            Ok(())
+        }
+        ("max_planning_time" | "tolerance", v) => Err(format!(
+            "{name} must be a finite non-negative double, not {v:?}"
+        )),
+        ("planner", v) => Err(format!("planner must be a string, not {v:?}")),
+        _ => Err(format!("`{name}` cannot be set at run time")),
     }
 }

@@ -1,0 +1,111 @@
+//! The node's inputs, one task each: maps from `/map`, start poses from `/initialpose`,
+//! `/amcl_pose` and `/odom`, and goals from `/goal_pose`. Each message is checked on arrival; a
+//! bad one is answered on `/diagnostics` (maps, goals) or logged (poses), and the task goes on.
+
+use crate::convert::{self, Failure};
+use crate::outputs::Outputs;
+use crate::planning::install_map;
+use crate::state::Shared;
+use log::{error, warn};
+use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
+use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
+use planner_core::geometry::Pose2;
+use ros2_client::Subscription;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::Instant;
+use tokio::sync::watch;
+
+/// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
+pub type GoalSlot = Option<(u64, Pose2)>;
+
+/// `/map`: each valid map replaces the current one (also while a plan runs: that plan keeps the
+/// map it started with); a malformed one is refused and the last good map kept.
+pub async fn receive_maps(s: Arc<Shared>, o: Outputs, sub: Subscription<OccupancyGrid>) {
+    loop {
+        match sub.async_take().await {
+            Ok((msg, _)) => {
+                match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
+                    Ok(Ok(map)) => install_map(&s, map, "/map").await,
+                    Ok(Err(e)) => {
+                        let f = Failure::new(
+                            "INVALID_INPUT",
+                            format!("map on /map refused, keeping the last good one: {e}"),
+                        );
+                        o.diagnose(&s, 0, Err(&f), 0.0).await;
+                    }
+                    Err(e) => error!("map task: {e}"),
+                }
+            }
+            Err(e) => warn!("/map: {e:?}"),
+        }
+    }
+}
+
+/// `/initialpose` or `/amcl_pose` (`name`): the start of the next plan.
+pub async fn receive_start_poses(
+    s: Arc<Shared>,
+    name: &'static str,
+    sub: Subscription<PoseWithCovarianceStamped>,
+) {
+    loop {
+        let Ok((msg, _)) = sub.async_take().await else {
+            continue;
+        };
+        let stamped = PoseStamped {
+            header: msg.header,
+            pose: msg.pose.pose,
+        };
+        match convert::pose_in_frame(&stamped, &s.params.global_frame) {
+            Ok(p) => *s.start.write().expect("lock") = Some((p, Instant::now())),
+            Err(f) => warn!("{name} ignored: {}", f.message),
+        }
+    }
+}
+
+/// `/odom`, through the static `map_to_odom` transform: the start of the next plan and the
+/// follower's feedback.
+pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
+    loop {
+        let Ok((msg, _)) = sub.async_take().await else {
+            continue;
+        };
+        match convert::pose2(&msg.pose.pose) {
+            Ok(p) => {
+                let [ox, oy, oyaw] = s.params.map_to_odom;
+                let (sn, cs) = oyaw.sin_cos();
+                let in_map = Pose2::new(
+                    ox + cs * p.x - sn * p.y,
+                    oy + sn * p.x + cs * p.y,
+                    p.yaw + oyaw,
+                );
+                *s.start.write().expect("lock") = Some((in_map, Instant::now()));
+                *s.odom.write().expect("lock") = Some((in_map, Instant::now()));
+            }
+            Err(f) => warn!("/odom ignored: {}", f.message),
+        }
+    }
+}
+
+/// `/goal_pose`: a valid goal is numbered (which cancels a plan still running for an older one)
+/// and put in the slot the planning task watches; a bad one is answered at once.
+pub async fn receive_goals(
+    s: Arc<Shared>,
+    o: Outputs,
+    sub: Subscription<PoseStamped>,
+    slot: watch::Sender<GoalSlot>,
+) {
+    loop {
+        let Ok((msg, _)) = sub.async_take().await else {
+            continue;
+        };
+        match convert::pose_in_frame(&msg, &s.params.global_frame) {
+            Ok(goal) => {
+                let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
+                // Fails only when the planning task has ended, i.e. during shutdown.
+                let _ = slot.send(Some((id, goal)));
+            }
+            Err(f) => o.diagnose(&s, 0, Err(&f), 0.0).await,
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! What the node publishes in answer: `/plan`, the Pareto markers, `/diagnostics` (and the log
+//! line that goes with every answer), and the follower's `/cmd_vel`.
+
+use crate::convert::{self, Failure};
+use crate::planning::Outcome;
+use crate::state::Shared;
+use chassis_bridge::Twist2;
+use log::{info, warn};
+use patrol_msgs::diagnostic_msgs::DiagnosticArray;
+use patrol_msgs::geometry_msgs::{Twist, TwistStamped, Vector3};
+use patrol_msgs::nav_msgs::Path;
+use patrol_msgs::std_msgs::Header;
+use patrol_msgs::visualization_msgs::MarkerArray;
+use planner_core::planner::Plan;
+use ros2_client::Publisher;
+use std::sync::Arc;
+
+/// The publishers every request answers on.
+#[derive(Clone)]
+pub struct Outputs {
+    pub plan: Arc<Publisher<Path>>,
+    pub diagnostics: Arc<Publisher<DiagnosticArray>>,
+    pub pareto: Arc<Publisher<MarkerArray>>,
+    pub cmd_vel: CmdVel,
+}
+
+/// `/cmd_vel` as Twist, or as TwistStamped (`enable_stamped_cmd_vel`).
+#[derive(Clone)]
+pub enum CmdVel {
+    Plain(Arc<Publisher<Twist>>),
+    Stamped(Arc<Publisher<TwistStamped>>),
+}
+
+impl Outputs {
+    /// A velocity command on `/cmd_vel`.
+    pub async fn drive(&self, s: &Shared, t: Twist2) {
+        let twist = Twist {
+            linear: Vector3 {
+                x: t.linear,
+                y: 0.0,
+                z: 0.0,
+            },
+            angular: Vector3 {
+                x: 0.0,
+                y: 0.0,
+                z: t.angular,
+            },
+        };
+        let sent = match &self.cmd_vel {
+            CmdVel::Plain(p) => p.async_publish(twist).await.map_err(|e| format!("{e:?}")),
+            CmdVel::Stamped(p) => {
+                let header = Header {
+                    stamp: ros_edge::now(),
+                    frame_id: s.params.robot_base_frame.clone(),
+                };
+                p.async_publish(TwistStamped { header, twist })
+                    .await
+                    .map_err(|e| format!("{e:?}"))
+            }
+        };
+        if let Err(e) = sent {
+            warn!("/cmd_vel: {e}");
+        }
+    }
+
+    pub fn header(&self, s: &Shared) -> Header {
+        Header {
+            stamp: ros_edge::now(),
+            frame_id: s.params.global_frame.clone(),
+        }
+    }
+
+    pub async fn diagnose(
+        &self,
+        s: &Shared,
+        seed: u64,
+        result: Result<&Plan, &Failure>,
+        elapsed_ms: f64,
+    ) {
+        let planner = s.live.read().expect("lock").planner.clone();
+        // The one place every answer is logged (terminal and /rosout) with its reason.
+        match result {
+            Ok(plan) => info!(
+                "{planner}: {:.2} m, {:.2} rad of turning in {elapsed_ms:.1} ms (seed {seed})",
+                plan.metrics.length_m, plan.metrics.turning_rad
+            ),
+            Err(f) => warn!("{planner}: {}: {} (seed {seed})", f.code, f.message),
+        }
+        let msg = convert::diagnostics(self.header(s), &planner, seed, result, elapsed_ms);
+        if let Err(e) = self.diagnostics.async_publish(msg).await {
+            warn!("/diagnostics: {e:?}");
+        }
+    }
+
+    /// A plan as nav_msgs/Path, densified at the current map's resolution.
+    pub fn path(&self, s: &Shared, plan: &Plan, goal_yaw: f64) -> Path {
+        let spacing = s
+            .map
+            .read()
+            .expect("lock")
+            .as_ref()
+            .map_or(0.05, |m| m.map.info().resolution);
+        convert::path_msg(&plan.waypoints, goal_yaw, spacing, self.header(s))
+    }
+
+    /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`. Returns the
+    /// published path.
+    pub async fn publish(&self, s: &Shared, outcome: &Outcome) -> Option<Path> {
+        let mut published = None;
+        if let Ok((plan, goal_yaw)) = &outcome.result {
+            let path = self.path(s, plan, *goal_yaw);
+            published = Some(path.clone());
+            if let Err(e) = self.plan.async_publish(path).await {
+                warn!("/plan: {e:?}");
+            }
+            if s.params.publish_pareto && !plan.pareto.is_empty() {
+                if let Err(e) = self
+                    .pareto
+                    .async_publish(convert::pareto_markers(plan, self.header(s)))
+                    .await
+                {
+                    warn!("/patrol_planner/pareto: {e:?}");
+                }
+            }
+        }
+        self.diagnose(
+            s,
+            outcome.seed,
+            outcome.result.as_ref().map(|(p, _)| p),
+            outcome.elapsed_ms,
+        )
+        .await;
+        published
+    }
+}

@@ -1,0 +1,267 @@
+//! Planning requests: a goal or a GetPlan call becomes a planner-core query on the current map
+//! with the current settings, run on tokio's blocking pool so the node keeps receiving meanwhile.
+//! A newer goal or `max_planning_time` interrupts a running plan.
+
+use crate::convert::{self, Failure};
+use crate::inputs::GoalSlot;
+use crate::outputs::Outputs;
+use crate::state::{MapState, Shared};
+use chassis_bridge::follower::Follower;
+use chassis_bridge::Twist2;
+use log::{error, info, warn};
+use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
+use planner_core::geometry::{Point2, Pose2};
+use planner_core::grid::GridMap;
+use planner_core::inflation::PlanningGrid;
+use planner_core::planner::{Interrupt, Plan, PlanContext, PlannerRng, Query, SolveOptions};
+use planner_core::registry;
+use rand::SeedableRng;
+use ros2_client::Server;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::watch;
+
+/// What one request produced.
+pub struct Outcome {
+    /// The plan and the goal's heading, or why not.
+    pub result: Result<(Plan, f64), Failure>,
+    pub seed: u64,
+    pub elapsed_ms: f64,
+}
+
+/// Plans on the current map with the current settings (blocking). `goal_id` makes the plan
+/// stop when a newer goal arrives.
+pub fn plan(
+    s: &Shared,
+    start: Pose2,
+    goal: Pose2,
+    tolerance: f64,
+    goal_id: Option<u64>,
+) -> Outcome {
+    let live = s.live.read().expect("lock").clone();
+    let seed = s.params.planning.seed.unwrap_or_else(rand::random);
+    let failed = |f: Failure| Outcome {
+        result: Err(f),
+        seed,
+        elapsed_ms: 0.0,
+    };
+    let Some(map) = s.map.read().expect("lock").clone() else {
+        return failed(Failure::new(
+            "NO_MAP",
+            "no map yet: publish /map or set map_yaml",
+        ));
+    };
+    let mut config = s.params.planning.clone();
+    config.planner = live.planner.clone();
+    let planner = match registry::build(&live.planner, &config) {
+        Ok(p) => p,
+        Err(e) => return failed(Failure::new("INVALID_PLANNER", e.to_string())),
+    };
+    let t0 = Instant::now();
+    let deadline = (live.max_planning_time > 0.0)
+        .then(|| t0 + Duration::from_secs_f64(live.max_planning_time));
+    let interrupt = || {
+        if goal_id.is_some_and(|id| s.goals.load(Ordering::SeqCst) != id) {
+            Some(Interrupt::Cancelled)
+        } else if deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(Interrupt::Deadline)
+        } else {
+            None
+        }
+    };
+    let mut rng = PlannerRng::seed_from_u64(seed);
+    let mut ctx = PlanContext {
+        rng: &mut rng,
+        interrupt: &interrupt,
+    };
+    let query = Query {
+        start: start.position(),
+        goal: Point2::new(goal.x, goal.y),
+        tolerance,
+    };
+    let result = planner_core::solve(
+        planner.as_ref(),
+        &map.grid,
+        &query,
+        SolveOptions {
+            smoothing: config.smoothing,
+        },
+        &mut ctx,
+    );
+    let elapsed_ms = t0.elapsed().as_secs_f64() * 1e3;
+    match result {
+        // Logged where the answer is published (Outputs::diagnose), with every other outcome.
+        Ok(plan) => Outcome {
+            result: Ok((plan, goal.yaw)),
+            seed,
+            elapsed_ms,
+        },
+        Err(e) => Outcome {
+            result: Err(Failure::from(e)),
+            seed,
+            elapsed_ms,
+        },
+    }
+}
+
+/// Validates a map into a planning grid (off the async threads) and makes it the current one.
+pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
+    let costmap = s.params.planning.costmap.clone();
+    let (w, h) = (map.width(), map.height());
+    match tokio::task::spawn_blocking(move || {
+        PlanningGrid::new(&map, &costmap).map(|grid| MapState { map, grid })
+    })
+    .await
+    {
+        Ok(Ok(state)) => {
+            *s.map.write().expect("lock") = Some(Arc::new(state));
+            info!("map from {source}: {w} x {h} cells");
+        }
+        Ok(Err(e)) => error!("map from {source} refused: {e}"),
+        Err(e) => error!("map task: {e}"),
+    }
+}
+
+/// A GetPlan request: its own start when it names a frame, else the current pose; its own
+/// tolerance when positive, else the node's.
+pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
+    let failed = |f: Failure| Outcome {
+        result: Err(f),
+        seed: 0,
+        elapsed_ms: 0.0,
+    };
+    let goal = match convert::pose_in_frame(&req.goal, &s.params.global_frame) {
+        Ok(g) => g,
+        Err(f) => return failed(f),
+    };
+    let start = if req.start.header.frame_id.is_empty() {
+        match s.start.read().expect("lock").map(|(p, _)| p) {
+            Some(p) => p,
+            None => {
+                return failed(Failure::new(
+                    "NO_START_POSE",
+                    "the request has no start (empty frame) and no pose arrived yet",
+                ))
+            }
+        }
+    } else {
+        match convert::pose_in_frame(&req.start, &s.params.global_frame) {
+            Ok(p) => p,
+            Err(f) => return failed(f),
+        }
+    };
+    let tolerance = if req.tolerance.is_finite() && req.tolerance > 0.0 {
+        req.tolerance as f64
+    } else {
+        s.live.read().expect("lock").tolerance
+    };
+    let s2 = s.clone();
+    tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, None))
+        .await
+        .unwrap_or_else(|e| {
+            failed(Failure::new(
+                "NO_VALID_PATH",
+                format!("planning task failed: {e}"),
+            ))
+        })
+}
+
+/// Plans the newest goal in the slot, publishes the answer, and hands a successful plan to the
+/// follower (a failed one stops the robot). Goals that arrive faster than plans finish are
+/// coalesced: only the newest is planned.
+pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<GoalSlot>) {
+    while slot.changed().await.is_ok() {
+        let Some((id, goal)) = *slot.borrow_and_update() else {
+            continue;
+        };
+        if s.goals.load(Ordering::SeqCst) != id {
+            continue; // a newer goal is already waiting
+        }
+        let start = s.start.read().expect("lock").map(|(p, _)| p);
+        let Some(start) = start else {
+            o.diagnose(
+                &s,
+                0,
+                Err(&Failure::new(
+                    "NO_START_POSE",
+                    "no start pose yet: publish /initialpose, /amcl_pose or /odom",
+                )),
+                0.0,
+            )
+            .await;
+            continue;
+        };
+        let tolerance = s.live.read().expect("lock").tolerance;
+        let s2 = s.clone();
+        let Ok(outcome) =
+            tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, Some(id))).await
+        else {
+            continue;
+        };
+        if matches!(&outcome.result, Err(f) if f.code == "CANCELLED") {
+            info!("plan for goal {id} cancelled by a newer goal");
+            continue;
+        }
+        let path = o.publish(&s, &outcome).await;
+        if s.params.follow_plan {
+            // A new plan replaces the one being followed; a failed goal stops the robot.
+            let next = path.and_then(|p| {
+                let pts = p
+                    .poses
+                    .iter()
+                    .map(|q| (q.pose.position.x, q.pose.position.y))
+                    .collect();
+                Follower::new(
+                    s.params.follower,
+                    pts,
+                    outcome.result.as_ref().map_or(0.0, |r| r.1),
+                )
+            });
+            let stop = next.is_none();
+            *s.follower.lock().expect("lock") = next;
+            if stop {
+                o.drive(&s, Twist2::STOP).await;
+            }
+        }
+    }
+}
+
+/// `/patrol_planner/make_plan` (nav_msgs/GetPlan): every request answered, an empty plan on
+/// failure with the reason on `/diagnostics`.
+pub async fn serve_get_plan(
+    s: Arc<Shared>,
+    o: Outputs,
+    server: Server<GetPlanRequest, GetPlanResponse>,
+) {
+    loop {
+        let (id, req) = match server.async_receive_request().await {
+            Ok(r) => r,
+            Err(e) => {
+                warn!("make_plan: {e:?}");
+                continue;
+            }
+        };
+        let outcome = answer_get_plan(&s, req).await;
+        o.diagnose(
+            &s,
+            outcome.seed,
+            outcome.result.as_ref().map(|(p, _)| p),
+            outcome.elapsed_ms,
+        )
+        .await;
+        let plan = match &outcome.result {
+            Ok((plan, goal_yaw)) => o.path(&s, plan, *goal_yaw),
+            Err(_) => Path {
+                header: o.header(&s),
+                poses: Vec::new(),
+            },
+        };
+        if let Err(e) = server
+            .async_send_response(id, GetPlanResponse { plan })
+            .await
+        {
+            warn!("make_plan response: {e:?}");
+        }
+    }
+}

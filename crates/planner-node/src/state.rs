@@ -1,0 +1,41 @@
+//! What the node's tasks share: the parameters, the settings `ros2 param set` changes, the
+//! current map with its planning grid, the latest poses, the goal counter and the plan being
+//! followed. Locks are held only to copy a value in or out, never across an await or a plan.
+
+use crate::params::NodeParams;
+use chassis_bridge::follower::Follower;
+use planner_core::geometry::Pose2;
+use planner_core::grid::GridMap;
+use planner_core::inflation::PlanningGrid;
+use std::sync::atomic::AtomicU64;
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::Instant;
+
+/// Settings that `ros2 param set` may change while the node runs.
+#[derive(Clone, Debug)]
+pub struct Live {
+    pub planner: String,
+    pub max_planning_time: f64,
+    pub tolerance: f64,
+}
+
+/// A validated map with its planning grid.
+pub struct MapState {
+    pub map: GridMap,
+    pub grid: PlanningGrid,
+}
+
+/// What the tasks share.
+pub struct Shared {
+    pub params: NodeParams,
+    pub live: RwLock<Live>,
+    pub map: RwLock<Option<Arc<MapState>>>,
+    /// The latest start pose (map frame) and when it arrived.
+    pub start: RwLock<Option<(Pose2, Instant)>>,
+    /// Counts goals: a running goal plan stops when it moves on.
+    pub goals: AtomicU64,
+    /// The latest `/odom` pose (map frame) and when it arrived: the follower's feedback.
+    pub odom: RwLock<Option<(Pose2, Instant)>>,
+    /// The plan being followed, if any.
+    pub follower: Mutex<Option<Follower>>,
+}
