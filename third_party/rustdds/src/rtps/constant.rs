@@ -107,7 +107,11 @@ pub const DATAGRAM_HEADER_OVERHEAD: usize = 48;
 // Readers (v2.5 Section 8.4.14.1.1), so this is a constant and must NOT be
 // varied per peer. Per-peer path MTU only controls how many fragments we pack
 // into each DATAFRAG submessage / datagram, never the fragment size itself.
-pub const FRAGMENT_SIZE: usize = 256;
+// patrol-planner patch: 1024 instead of 256. With 256-byte fragments a 4 MB OccupancyGrid is
+// 16,384 fragments, and after the first burst overflows a receiver's socket buffer the
+// NACK_FRAG repair rounds move only a few fragments each: a late rclpy subscriber waited 17-20 s
+// for it. With 1024 (one fragment plus headers still fits a 1500-byte MTU) it takes 1.6-1.8 s.
+pub const FRAGMENT_SIZE: usize = 1024;
 
 /// Convert an interface MTU into the RTPS-message (UDP payload) budget usable
 /// for submessage/fragment packing: `mtu - DATAGRAM_HEADER_OVERHEAD`, floored

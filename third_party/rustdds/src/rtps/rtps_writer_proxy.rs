@@ -91,7 +91,10 @@ impl RtpsWriterProxy {
       remote_group_entity_id,
       changes: BTreeMap::new(),
       received_heartbeat_count: 0,
-      sent_ack_nack_count: 0,
+      // patrol-planner patch: counts start at 1. A writer drops an ACKNACK whose count is not
+      // above the last it saw, which starts at 0 (eProsima Fast DDS), so a first ACKNACK
+      // numbered 0 (the preemptive one) was ignored.
+      sent_ack_nack_count: 1,
       // Sequence numbering must start at 1.
       // Therefore, we can ACK all sequence numbers below 1 even before receiving anything.
       ack_base: SequenceNumber::new(1),
@@ -327,7 +330,10 @@ impl RtpsWriterProxy {
       multicast_locator_list,
       changes: BTreeMap::new(),
       received_heartbeat_count: 0,
-      sent_ack_nack_count: 0,
+      // patrol-planner patch: counts start at 1. A writer drops an ACKNACK whose count is not
+      // above the last it saw, which starts at 0 (eProsima Fast DDS), so a first ACKNACK
+      // numbered 0 (the preemptive one) was ignored.
+      sent_ack_nack_count: 1,
       ack_base: SequenceNumber::default(),
       last_received_sequence_number: SequenceNumber::new(0),
       last_received_timestamp: Timestamp::INVALID,
