@@ -5,7 +5,7 @@
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --service
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 30 --service --fresh
 
-It publishes the start on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
+It publishes the start (if given) on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
 and waits for /plan and /diagnostics; with --service it asks /patrol_planner/make_plan (GetPlan)
 instead and times the call; --fresh makes a new client for every call, as each `ros2 service
 call` does, so discovery is part of the time. Use the node's ROS_DOMAIN_ID."""
@@ -28,7 +28,8 @@ def ok(status):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--start", nargs=2, type=float, required=True, metavar=("X", "Y"))
+    ap.add_argument("--start", nargs=2, type=float, metavar=("X", "Y"),
+                    help="publish this start on /initialpose first (leave it out when /odom or AMCL already tells the node where the robot is)")
     ap.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"))
     ap.add_argument("--repeat", type=int, default=1, help="send the goal this many times and report the median latency")
     ap.add_argument("--service", action="store_true", help="call /patrol_planner/make_plan instead of publishing goals")
@@ -52,19 +53,31 @@ def main():
         rclpy.spin_once(node, timeout_sec=0.1)
     if goal_pub.get_subscription_count() == 0:
         raise SystemExit("no patrol_planner found (same ROS_DOMAIN_ID?)")
-    start = PoseWithCovarianceStamped()
-    start.header.frame_id = "map"
-    start.pose.pose.position.x, start.pose.pose.position.y = args.start
-    start.pose.pose.orientation.w = 1.0
     # Our side sees the node's subscriptions before the node has matched our publishers: give
-    # discovery a moment to settle both ways, then send the start (twice, to be safe).
+    # discovery a moment to settle both ways.
     settle = time.monotonic()
     while time.monotonic() - settle < 1.0:
         rclpy.spin_once(node, timeout_sec=0.05)
+    if args.start is not None:
+        publish_start(node, start_pub, args.start)
+    send_goals(node, goal_pub, plans, diags, args)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def publish_start(node, start_pub, xy):
+    start = PoseWithCovarianceStamped()
+    start.header.frame_id = "map"
+    start.pose.pose.position.x, start.pose.pose.position.y = xy
+    start.pose.pose.orientation.w = 1.0
+    # Twice, to be safe.
     for _ in range(2):
         start_pub.publish(start)
         for _ in range(4):
             rclpy.spin_once(node, timeout_sec=0.05)
+
+
+def send_goals(node, goal_pub, plans, diags, args):
     latencies = []
     for _ in range(args.repeat):
         before_plans, before_diags = len(plans), len(diags)
@@ -93,8 +106,6 @@ def main():
     if args.repeat > 1 and latencies:
         print(f"goal -> /plan latency over {len(latencies)} goals: median {1e3 * statistics.median(latencies):.1f} ms, "
               f"max {1e3 * max(latencies):.1f} ms")
-    node.destroy_node()
-    rclpy.shutdown()
 
 
 def call_service(node, args):
@@ -108,10 +119,11 @@ def call_service(node, args):
 
     client = new_client()
     req = GetPlan.Request()
-    for pose, (x, y) in [(req.start, args.start), (req.goal, args.goal)]:
-        pose.header.frame_id = "map"
-        pose.pose.position.x, pose.pose.position.y = x, y
+    for pose, xy in [(req.start, args.start), (req.goal, args.goal)]:
         pose.pose.orientation.w = 1.0
+        if xy is not None:  # a start with an empty frame means "from the current pose"
+            pose.header.frame_id = "map"
+            pose.pose.position.x, pose.pose.position.y = xy
     latencies = []
     for _ in range(args.repeat):
         if args.fresh:

@@ -86,6 +86,11 @@ pub fn pose_in_frame(msg: &PoseStamped, global_frame: &str) -> Result<Pose2, Fai
     pose2(&msg.pose)
 }
 
+/// A header stamp in seconds.
+pub fn seconds(t: &Time) -> f64 {
+    f64::from(t.sec) + f64::from(t.nanosec) * 1e-9
+}
+
 /// A pose's position and heading, refusing NaN and infinities.
 pub fn pose2(p: &Pose) -> Result<Pose2, Failure> {
     let (x, y) = (p.position.x, p.position.y);

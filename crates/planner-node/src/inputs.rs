@@ -6,7 +6,7 @@ use crate::convert::{self, Failure};
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::state::Shared;
-use log::{error, warn};
+use log::{debug, error, info, warn};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use planner_core::geometry::Pose2;
@@ -42,7 +42,8 @@ pub async fn receive_maps(s: Arc<Shared>, o: Outputs, sub: Subscription<Occupanc
     }
 }
 
-/// `/initialpose` or `/amcl_pose` (`name`): the start of the next plan.
+/// `/initialpose` or `/amcl_pose` (`name`): the start of the next plan, and (with
+/// `track_map_to_odom`) the anchor of `map -> odom` for the odometry that follows.
 pub async fn receive_start_poses(
     s: Arc<Shared>,
     name: &'static str,
@@ -52,19 +53,35 @@ pub async fn receive_start_poses(
         let Ok((msg, _)) = sub.async_take().await else {
             continue;
         };
+        let stamp = convert::seconds(&msg.header.stamp);
         let stamped = PoseStamped {
             header: msg.header,
             pose: msg.pose.pose,
         };
         match convert::pose_in_frame(&stamped, &s.params.global_frame) {
-            Ok(p) => *s.start.write().expect("lock") = Some((p, Instant::now())),
+            Ok(p) => {
+                *s.start.write().expect("lock") = Some((p, Instant::now()));
+                let anchored = s.localization.lock().expect("lock").anchor(stamp, p);
+                if let Some(t) = anchored {
+                    // AMCL sends one per update: only a user's initial pose is worth a line.
+                    let line = format!(
+                        "{name}: map -> odom now ({:.3}, {:.3}, {:.3} rad)",
+                        t.x, t.y, t.yaw
+                    );
+                    if name == "/initialpose" {
+                        info!("{line}");
+                    } else {
+                        debug!("{line}");
+                    }
+                }
+            }
             Err(f) => warn!("{name} ignored: {}", f.message),
         }
     }
 }
 
-/// `/odom`, through the static `map_to_odom` transform: the start of the next plan and the
-/// follower's feedback.
+/// `/odom`, through the current `map -> odom` (localization.rs): the start of the next plan and
+/// the follower's feedback.
 pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
     loop {
         let Ok((msg, _)) = sub.async_take().await else {
@@ -72,13 +89,8 @@ pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
         };
         match convert::pose2(&msg.pose.pose) {
             Ok(p) => {
-                let [ox, oy, oyaw] = s.params.map_to_odom;
-                let (sn, cs) = oyaw.sin_cos();
-                let in_map = Pose2::new(
-                    ox + cs * p.x - sn * p.y,
-                    oy + sn * p.x + cs * p.y,
-                    p.yaw + oyaw,
-                );
+                let stamp = convert::seconds(&msg.header.stamp);
+                let in_map = s.localization.lock().expect("lock").odometry(stamp, p);
                 *s.start.write().expect("lock") = Some((in_map, Instant::now()));
                 *s.odom.write().expect("lock") = Some((in_map, Instant::now()));
             }

@@ -8,6 +8,7 @@
 mod convert;
 mod follow;
 mod inputs;
+mod localization;
 mod node;
 mod outputs;
 mod params;

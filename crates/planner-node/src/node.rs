@@ -25,6 +25,7 @@
 use crate::convert;
 use crate::follow;
 use crate::inputs::{self, GoalSlot};
+use crate::localization::Localization;
 use crate::outputs::{CmdVel, Outputs};
 use crate::params::{validate_parameter, NodeParams};
 use crate::planning::{self, install_map};
@@ -35,6 +36,7 @@ use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::visualization_msgs::MarkerArray;
+use planner_core::geometry::Pose2;
 use ros2_client::{
     qos::{Durability, History},
     MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, QosProfile, ServiceMapping,
@@ -56,6 +58,14 @@ pub async fn run(params: NodeParams) -> Result<()> {
         map: RwLock::new(None),
         start: RwLock::new(None),
         goals: AtomicU64::new(0),
+        localization: std::sync::Mutex::new(Localization::new(
+            Pose2::new(
+                params.map_to_odom[0],
+                params.map_to_odom[1],
+                params.map_to_odom[2],
+            ),
+            params.track_map_to_odom,
+        )),
         odom: RwLock::new(None),
         follower: std::sync::Mutex::new(None),
     });

@@ -25,6 +25,9 @@ pub struct NodeParams {
     /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
     /// default: odometry is the map frame, as for the simulated chassis).
     pub map_to_odom: [f64; 3],
+    /// Re-estimate `map -> odom` from every `/initialpose` and `/amcl_pose` (the transform AMCL
+    /// publishes) instead of keeping `map_to_odom` fixed.
+    pub track_map_to_odom: bool,
     /// Publish every Pareto-front path on `/patrol_planner/pareto` for RViz.
     pub publish_pareto: bool,
     /// Follow each goal's plan: publish `/cmd_vel` from `/odom` (regulated pure pursuit).
@@ -51,6 +54,7 @@ impl Default for NodeParams {
             map_yaml: String::new(),
             global_frame: "map".into(),
             map_to_odom: [0.0; 3],
+            track_map_to_odom: true,
             publish_pareto: true,
             follow_plan: true,
             twist_limits: TwistLimits::default(),

@@ -2,6 +2,7 @@
 //! current map with its planning grid, the latest poses, the goal counter and the plan being
 //! followed. Locks are held only to copy a value in or out, never across an await or a plan.
 
+use crate::localization::Localization;
 use crate::params::NodeParams;
 use chassis_bridge::follower::Follower;
 use planner_core::geometry::Pose2;
@@ -34,6 +35,8 @@ pub struct Shared {
     pub start: RwLock<Option<(Pose2, Instant)>>,
     /// Counts goals: a running goal plan stops when it moves on.
     pub goals: AtomicU64,
+    /// `map -> odom` and the recent odometry (see localization.rs).
+    pub localization: Mutex<Localization>,
     /// The latest `/odom` pose (map frame) and when it arrived: the follower's feedback.
     pub odom: RwLock<Option<(Pose2, Instant)>>,
     /// The plan being followed, if any.

@@ -1,0 +1,154 @@
+//! Where the robot is in the map frame, from odometry and map-frame pose estimates, the way a
+//! Nav2 stack composes them through TF: `map -> odom` (AMCL's correction) times `odom ->
+//! base_link` (the wheel odometry).
+//!
+//! This node has no TF library, so it keeps `map -> odom` itself: the `map_to_odom` parameter at
+//! first, then, with `track_map_to_odom`, re-anchored on every map-frame pose of the robot
+//! (`/amcl_pose`, or a user's `/initialpose` from RViz) so that the odometry of that moment maps
+//! onto it, exactly the transform AMCL publishes. Between estimates, odometry carries the pose
+//! at its own rate, so the follower sees a smooth map-frame pose and the start of a plan is
+//! never older than the last odometry.
+
+use nalgebra::{Isometry2, Vector2};
+use planner_core::geometry::Pose2;
+use std::collections::VecDeque;
+
+/// How much odometry is kept to match a pose estimate's stamp (s).
+const HISTORY_S: f64 = 2.0;
+
+fn iso(p: Pose2) -> Isometry2<f64> {
+    Isometry2::new(Vector2::new(p.x, p.y), p.yaw)
+}
+
+fn pose(i: &Isometry2<f64>) -> Pose2 {
+    Pose2::new(i.translation.x, i.translation.y, i.rotation.angle())
+}
+
+/// The `map -> odom` estimate and the recent odometry it is anchored with.
+#[derive(Clone, Debug)]
+pub struct Localization {
+    map_to_odom: Isometry2<f64>,
+    track: bool,
+    /// (stamp in s, pose in odom), oldest first.
+    history: VecDeque<(f64, Isometry2<f64>)>,
+}
+
+impl Localization {
+    /// Starts from a fixed `map_to_odom`; with `track`, pose estimates re-anchor it.
+    pub fn new(map_to_odom: Pose2, track: bool) -> Self {
+        Self {
+            map_to_odom: iso(map_to_odom),
+            track,
+            history: VecDeque::new(),
+        }
+    }
+
+    /// The current `map -> odom` transform, as a pose.
+    pub fn map_to_odom(&self) -> Pose2 {
+        pose(&self.map_to_odom)
+    }
+
+    /// An odometry pose (odom frame) stamped `stamp` (s); returns the robot's map-frame pose.
+    pub fn odometry(&mut self, stamp: f64, in_odom: Pose2) -> Pose2 {
+        let o = iso(in_odom);
+        // Stamps from another clock or going backwards (a restarted bridge) start a new history.
+        if self.history.back().is_some_and(|(t, _)| stamp < *t) {
+            self.history.clear();
+        }
+        self.history.push_back((stamp, o));
+        while self
+            .history
+            .front()
+            .is_some_and(|(t, _)| stamp - t > HISTORY_S)
+        {
+            self.history.pop_front();
+        }
+        pose(&(self.map_to_odom * o))
+    }
+
+    /// A map-frame pose of the robot at `stamp` (s; 0 for "now", as hand-made messages often
+    /// carry). Re-anchors `map -> odom` on the odometry nearest that time and returns the new
+    /// transform; `None` when not tracking or no odometry has arrived yet.
+    pub fn anchor(&mut self, stamp: f64, in_map: Pose2) -> Option<Pose2> {
+        if !self.track {
+            return None;
+        }
+        let odom = if stamp == 0.0 {
+            self.history.back()?.1
+        } else {
+            self.history
+                .iter()
+                .min_by(|a, b| (a.0 - stamp).abs().total_cmp(&(b.0 - stamp).abs()))?
+                .1
+        };
+        self.map_to_odom = iso(in_map) * odom.inverse();
+        Some(self.map_to_odom())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::FRAC_PI_2;
+
+    fn close(a: Pose2, b: Pose2) -> bool {
+        (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12 && (a.yaw - b.yaw).abs() < 1e-12
+    }
+
+    #[test]
+    fn a_fixed_transform_until_an_estimate_arrives() {
+        let mut l = Localization::new(Pose2::new(1.0, 2.0, FRAC_PI_2), true);
+        // odom (1, 0) turned by 90 degrees and shifted: (1, 3).
+        assert!(close(
+            l.odometry(1.0, Pose2::new(1.0, 0.0, 0.0)),
+            Pose2::new(1.0, 3.0, FRAC_PI_2)
+        ));
+    }
+
+    #[test]
+    fn an_estimate_reanchors_and_odometry_carries_on_from_it() {
+        let mut l = Localization::new(Pose2::new(0.0, 0.0, 0.0), true);
+        l.odometry(10.0, Pose2::new(0.0, 0.0, 0.0));
+        // The robot is really at (1, 1) facing +y.
+        l.anchor(10.0, Pose2::new(1.0, 1.0, FRAC_PI_2)).unwrap();
+        // Half a metre forward in odom is half a metre along +y in the map.
+        let p = l.odometry(10.5, Pose2::new(0.5, 0.0, 0.0));
+        assert!(close(p, Pose2::new(1.0, 1.5, FRAC_PI_2)), "{p:?}");
+    }
+
+    #[test]
+    fn the_estimate_is_matched_with_the_odometry_of_its_time() {
+        let mut l = Localization::new(Pose2::new(0.0, 0.0, 0.0), true);
+        for k in 0..=10 {
+            l.odometry(100.0 + 0.1 * k as f64, Pose2::new(0.1 * k as f64, 0.0, 0.0));
+        }
+        // AMCL says: at t = 100.5 (odom x = 0.5) the robot was at map (3, 0).
+        l.anchor(100.5, Pose2::new(3.0, 0.0, 0.0)).unwrap();
+        assert!(close(l.map_to_odom(), Pose2::new(2.5, 0.0, 0.0)));
+        // A zero stamp means "now": the latest odometry (x = 1.0).
+        l.anchor(0.0, Pose2::new(3.0, 0.0, 0.0)).unwrap();
+        assert!(close(l.map_to_odom(), Pose2::new(2.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn no_anchor_without_odometry_or_tracking() {
+        assert!(Localization::new(Pose2::new(0.0, 0.0, 0.0), true)
+            .anchor(0.0, Pose2::new(1.0, 1.0, 0.0))
+            .is_none());
+        let mut fixed = Localization::new(Pose2::new(0.5, 0.0, 0.0), false);
+        fixed.odometry(1.0, Pose2::new(0.0, 0.0, 0.0));
+        assert!(fixed.anchor(1.0, Pose2::new(9.0, 9.0, 0.0)).is_none());
+        assert!(close(fixed.map_to_odom(), Pose2::new(0.5, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn old_odometry_is_forgotten_and_a_clock_jump_restarts_the_history() {
+        let mut l = Localization::new(Pose2::new(0.0, 0.0, 0.0), true);
+        for k in 0..100 {
+            l.odometry(k as f64 * 0.1, Pose2::new(0.0, 0.0, 0.0));
+        }
+        assert!(l.history.len() <= 21);
+        l.odometry(1.0, Pose2::new(0.0, 0.0, 0.0));
+        assert_eq!(l.history.len(), 1);
+    }
+}
