@@ -49,8 +49,14 @@ def drive(planner, goal, domain):
     g.header.frame_id = "map"
     g.pose.position.x, g.pose.position.y = goal
     g.pose.orientation.w = 1.0
-    sent = time.time()
-    pub.publish(g)
+    # Until the node has heard /odom itself it answers NO_START_POSE: ask until a plan comes.
+    first = time.time()
+    while not plans and time.time() - first < 30:
+        sent = time.time()  # the driving time counts from the goal that was planned
+        pub.publish(g)
+        deadline = time.time() + 2
+        while not plans and time.time() < deadline:
+            ex.spin_once(timeout_sec=0.05)
     result = None
     while time.time() - sent < 300:
         ex.spin_once(timeout_sec=0.05)
