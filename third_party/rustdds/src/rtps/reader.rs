@@ -66,7 +66,13 @@ use crate::no_security::SecurityPluginsHandle;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum TimedEvent {
   DeadlineMissedCheck,
+  // patrol-planner patch: ask a newly matched writer for sample 1 once more, a moment after
+  // the preemptive ACKNACK (see handle_timed_event).
+  RepeatPreemptiveAckNack(GUID),
 }
+
+/// patrol-planner patch: how long after matching a writer the preemptive ACKNACK is repeated.
+const PREEMPTIVE_ACKNACK_REPEAT: StdDuration = StdDuration::from_millis(50);
 
 // Some pieces necessary to construct a reader.
 // These can be sent between threads, whereas a Reader cannot.
@@ -324,6 +330,19 @@ impl Reader {
         self.handle_requested_deadline_event();
         self.set_requested_deadline_check_timer(); // re-prime timer
       }
+      // patrol-planner patch: eProsima Fast DDS ignores a request for a sample it sent less
+      // than a millisecond before (still "underway"). When the preemptive ACKNACK came that
+      // soon after a first sample we had dropped (it arrived before we matched the writer),
+      // the sample came again only with the writer's next periodic HEARTBEAT, 3 s later. So
+      // if nothing has arrived from the writer by now, ask again.
+      TimedEvent::RepeatPreemptiveAckNack(writer) => {
+        if let Some(mut writer_proxy) = self.matched_writers.remove(&writer) {
+          if writer_proxy.all_ackable_before() <= SequenceNumber::new(1) {
+            self.send_preemptive_acknack_to(&mut writer_proxy);
+          }
+          self.matched_writers.insert(writer, writer_proxy);
+        }
+      }
     }
   }
 
@@ -424,6 +443,13 @@ impl Reader {
             if let Some(mut writer_proxy) = self.matched_writers.remove(&writer) {
               self.send_preemptive_acknack_to(&mut writer_proxy);
               self.matched_writers.insert(writer, writer_proxy);
+              self.timed_event_timer.borrow_mut().set_timeout(
+                PREEMPTIVE_ACKNACK_REPEAT,
+                DpTimerEvent::Reader {
+                  entity_id: self.my_guid.entity_id,
+                  event: TimedEvent::RepeatPreemptiveAckNack(writer),
+                },
+              );
             }
           }
         }
