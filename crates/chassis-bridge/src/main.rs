@@ -31,7 +31,7 @@ use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, Mult
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{
     qos::{Durability, History},
-    MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
+    MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
 };
 use serde::Deserialize;
 use std::sync::{Arc, Mutex};
@@ -229,38 +229,24 @@ async fn run(p: Params) -> Result<()> {
 
     // The latest command (and whether one arrived since the last tick), and the forwarded limits.
     let latest: Arc<Mutex<(Twist2, bool)>> = Arc::new(Mutex::new((Twist2::STOP, false)));
-    let cmd_name = Name::new("/", "cmd_vel")?;
-    if p.enable_stamped_cmd_vel {
-        let topic = node.create_topic(
-            &cmd_name,
-            MessageTypeName::new("geometry_msgs", "TwistStamped"),
-            &volatile,
-        )?;
-        let sub = node.create_subscription::<TwistStamped>(&topic, Some(best_effort.clone()))?;
-        let l = latest.clone();
-        tasks.spawn(async move {
-            loop {
-                if let Ok((t, _)) = sub.async_take().await {
-                    *l.lock().expect("lock") =
-                        (Twist2::new(t.twist.linear.x, t.twist.angular.z), true);
-                }
-            }
-        });
+    // /cmd_vel as TwistStamped (Jazzy's diff_drive_controller) or Twist: same handling after.
+    let (cmd_type, stamped) = if p.enable_stamped_cmd_vel {
+        ("TwistStamped", true)
     } else {
-        let topic = node.create_topic(
-            &cmd_name,
-            MessageTypeName::new("geometry_msgs", "Twist"),
-            &volatile,
-        )?;
-        let sub = node.create_subscription::<Twist>(&topic, Some(best_effort.clone()))?;
-        let l = latest.clone();
-        tasks.spawn(async move {
-            loop {
-                if let Ok((t, _)) = sub.async_take().await {
-                    *l.lock().expect("lock") = (Twist2::new(t.linear.x, t.angular.z), true);
-                }
-            }
-        });
+        ("Twist", false)
+    };
+    let cmd_topic = node.create_topic(
+        &Name::new("/", "cmd_vel")?,
+        MessageTypeName::new("geometry_msgs", cmd_type),
+        &volatile,
+    )?;
+    if stamped {
+        let sub =
+            node.create_subscription::<TwistStamped>(&cmd_topic, Some(best_effort.clone()))?;
+        tasks.spawn(keep_latest(sub, latest.clone(), |t| t.twist));
+    } else {
+        let sub = node.create_subscription::<Twist>(&cmd_topic, Some(best_effort.clone()))?;
+        tasks.spawn(keep_latest(sub, latest.clone(), |t| t));
     }
     let lim_topic = node.create_topic(
         &Name::new("/patrol_planner", "twist_limits")?,
@@ -402,6 +388,20 @@ async fn run(p: Params) -> Result<()> {
     drop(node);
     let _ = spinner.await;
     Ok(())
+}
+
+/// Keeps the newest command from `sub` in `latest` (flagged fresh for the watchdog).
+async fn keep_latest<M: 'static + serde::de::DeserializeOwned>(
+    sub: Subscription<M>,
+    latest: Arc<Mutex<(Twist2, bool)>>,
+    twist: fn(M) -> Twist,
+) {
+    loop {
+        if let Ok((m, _)) = sub.async_take().await {
+            let t = twist(m);
+            *latest.lock().expect("lock") = (Twist2::new(t.linear.x, t.angular.z), true);
+        }
+    }
 }
 
 fn wheel_msg(left: f64, right: f64) -> Float64MultiArray {
