@@ -23,8 +23,8 @@ use chassis_bridge::watchdog::{Verdict, Watchdog};
 use chassis_bridge::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::geometry_msgs::{
-    Point, Pose as PoseMsg, PoseWithCovariance, Quaternion, Transform, TransformStamped, Twist,
-    TwistStamped, TwistWithCovariance, Vector3,
+    Point, Pose as PoseMsg, PoseWithCovariance, Transform, TransformStamped, Twist, TwistStamped,
+    TwistWithCovariance, Vector3,
 };
 use patrol_msgs::nav_msgs::Odometry;
 use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
@@ -433,12 +433,7 @@ fn odom_msg(p: &Params, odo: Odometry2) -> Odometry {
                     y: pose.y,
                     z: 0.0,
                 },
-                orientation: Quaternion {
-                    x: 0.0,
-                    y: 0.0,
-                    z: (pose.yaw / 2.0).sin(),
-                    w: (pose.yaw / 2.0).cos(),
-                },
+                orientation: ros_edge::quaternion_from_yaw(pose.yaw),
             },
             ..Default::default()
         },

@@ -11,6 +11,7 @@ use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::{GridMap, MapError, MapInfo};
 use planner_core::planner::{Plan, PlanError};
+use ros_edge::quaternion_from_yaw;
 
 /// Why a request could not be planned, with the code `/diagnostics` reports.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,15 +63,6 @@ pub fn yaw_from_quaternion(q: &Quaternion) -> Result<f64, Failure> {
     }
     let (x, y, z, w) = (q.x / n, q.y / n, q.z / n, q.w / n);
     Ok((2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)))
-}
-
-pub fn quaternion_from_yaw(yaw: f64) -> Quaternion {
-    Quaternion {
-        x: 0.0,
-        y: 0.0,
-        z: (yaw / 2.0).sin(),
-        w: (yaw / 2.0).cos(),
-    }
 }
 
 /// Position and heading of a stamped pose in the global frame: the frame must be the global one

@@ -6,7 +6,7 @@ use crate::convert::{self, Failure};
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::state::Shared;
-use log::{debug, error, info, warn};
+use log::{error, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use planner_core::geometry::Pose2;
@@ -64,15 +64,18 @@ pub async fn receive_start_poses(
                 let anchored = s.localization.lock().expect("lock").anchor(stamp, p);
                 if let Some(t) = anchored {
                     // AMCL sends one per update: only a user's initial pose is worth a line.
-                    let line = format!(
-                        "{name}: map -> odom now ({:.3}, {:.3}, {:.3} rad)",
-                        t.x, t.y, t.yaw
-                    );
-                    if name == "/initialpose" {
-                        info!("{line}");
+                    let level = if name == "/initialpose" {
+                        Level::Info
                     } else {
-                        debug!("{line}");
-                    }
+                        Level::Debug
+                    };
+                    log!(
+                        level,
+                        "{name}: map -> odom now ({:.3}, {:.3}, {:.3} rad)",
+                        t.x,
+                        t.y,
+                        t.yaw
+                    );
                 }
             }
             Err(f) => warn!("{name} ignored: {}", f.message),

@@ -7,6 +7,7 @@ pub mod logging;
 
 use anyhow::{Context as _, Result};
 use patrol_msgs::builtin_interfaces::Time;
+use patrol_msgs::geometry_msgs::Quaternion;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{Context, ContextOptions, QosProfile};
 use std::future::Future;
@@ -51,6 +52,16 @@ pub fn now() -> Time {
     Time {
         sec: d.as_secs() as i32,
         nanosec: d.subsec_nanos(),
+    }
+}
+
+/// A planar heading as a quaternion (a rotation about z), for every pose both binaries publish.
+pub fn quaternion_from_yaw(yaw: f64) -> Quaternion {
+    Quaternion {
+        x: 0.0,
+        y: 0.0,
+        z: (yaw / 2.0).sin(),
+        w: (yaw / 2.0).cos(),
     }
 }
 
