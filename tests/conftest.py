@@ -86,27 +86,46 @@ class Ros:
         rclpy.shutdown(context=self.context)
 
 
-def start_node(domain, params_file, log_name):
-    """The real release binary on `domain`, its output in target/`log_name`."""
-    assert BINARY.exists(), f"{BINARY} is missing: build it with `cargo build --release -p planner-node`"
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="patrol_planner=info,warn")
+BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
+
+
+def start_binary(binary, domain, params_file, log_name, rust_log):
+    """A real release binary on `domain`, its output in target/`log_name`."""
+    assert binary.exists(), f"{binary} is missing: build it with `cargo build --release`"
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG=rust_log)
     log = open(ROOT / "target" / log_name, "w")
-    proc = subprocess.Popen([str(BINARY), "--params-file", str(params_file)], env=env, stdout=log, stderr=log)
+    proc = subprocess.Popen([str(binary), "--params-file", str(params_file)], env=env, stdout=log, stderr=log)
     proc.log = log
     return proc
 
 
-def stop_node(proc):
-    """Ctrl-C, as a user would; the node must exit cleanly and soon."""
+def stop_binary(proc):
+    """Ctrl-C, as a user would; the binary must exit cleanly and soon. On failure the message
+    carries the end of its log, so that a CI report says why."""
+    name = Path(proc.args[0]).name
     proc.send_signal(signal.SIGINT)
     try:
         code = proc.wait(timeout=15)
+        problem = None if code == 0 else f"{name} exited with {code}"
     except subprocess.TimeoutExpired:
         proc.kill()
-        raise AssertionError("patrol_planner did not stop within 15 s of Ctrl-C")
+        proc.wait()
+        problem = f"{name} did not stop within 15 s of Ctrl-C"
     finally:
         proc.log.close()
-    assert code == 0, f"patrol_planner exited with {code}; see {proc.log.name}"
+    if problem:
+        tail = "\n".join(Path(proc.log.name).read_text(errors="replace").splitlines()[-15:])
+        raise AssertionError(f"{problem}; the end of {proc.log.name}:\n{tail}")
+
+
+def start_node(domain, params_file, log_name):
+    """The real patrol_planner on `domain`, its output in target/`log_name`."""
+    return start_binary(BINARY, domain, params_file, log_name, "patrol_planner=info,warn")
+
+
+def start_bridge(domain, params_file, log_name, rust_log="chassis_bridge=info,warn"):
+    """The real chassis_bridge on `domain`, its output in target/`log_name`."""
+    return start_binary(BRIDGE, domain, params_file, log_name, rust_log)
 
 
 @pytest.fixture(scope="session")
@@ -118,7 +137,7 @@ def ros():
         yield r
     finally:
         r.close()
-        stop_node(proc)
+        stop_binary(proc)
 
 
 def stamped(x, y, yaw=0.0, frame="map"):

@@ -3,7 +3,6 @@ own ROS_DOMAIN_ID: goals and GetPlan get NO_MAP with a reason, the node plans as
 arrives on /map; then, given odometry, an initial pose re-anchors map -> odom as AMCL would, and
 plans start where odometry has carried the robot since."""
 import math
-import os
 
 import numpy as np
 import pytest
@@ -11,7 +10,7 @@ import rclpy
 
 from nav_msgs.msg import Odometry
 
-from conftest import Ros, domain_id, initial_pose, start_node, stamped, stop_node
+from conftest import Ros, domain_id, initial_pose, start_node, stamped, stop_binary
 from test_node import assert_collision_free, grid_msg, plan_to
 from test_services import get_plan
 
@@ -27,7 +26,7 @@ def bare(tmp_path_factory):
         yield r
     finally:
         r.close()
-        stop_node(proc)
+        stop_binary(proc)
 
 
 def test_no_map_yet_then_a_map(bare):

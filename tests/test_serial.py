@@ -8,8 +8,6 @@ import math
 import os
 import pty
 import select
-import signal
-import subprocess
 import threading
 import time
 import tty
@@ -19,9 +17,8 @@ import rclpy
 from geometry_msgs.msg import Twist, Vector3
 from nav_msgs.msg import Odometry
 
-from conftest import ROOT, Ros, domain_id
+from conftest import ROOT, Ros, domain_id, start_bridge, stop_binary
 
-BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
 R, B, TICKS = 0.08, 0.40, 2048.0  # config/chassis.yaml's wheel radius, separation, encoder counts
 
 
@@ -79,7 +76,6 @@ class FakeBoard(threading.Thread):
 
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
-    assert BRIDGE.exists(), f"{BRIDGE} is missing: cargo build --release -p chassis-bridge"
     master, slave = pty.openpty()
     tty.setraw(slave)  # no echo of the board's lines back to it before the bridge opens the port
     device = os.ttyname(slave)
@@ -91,22 +87,19 @@ def rig(tmp_path_factory):
     domain = domain_id(25)  # the bridge alone, away from the session node
     board = FakeBoard(master)
     board.start()
-    log = open(ROOT / "target" / "chassis_bridge_serial_test.log", "w")
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="info")
-    proc = subprocess.Popen([str(BRIDGE), "--params-file", str(params)], env=env, stdout=log, stderr=log)
+    proc = start_bridge(domain, params, "chassis_bridge_serial_test.log", "info")
     ros = Ros(domain, context=rclpy.Context())
     try:
         yield ros, board, proc
     finally:
         ros.close()
-        proc.send_signal(signal.SIGINT)
-        code = proc.wait(timeout=15)
-        board.stop.set()
-        board.join(timeout=5)
-        log.close()
-        os.close(master)
-        os.close(slave)
-        assert code == 0, "chassis_bridge did not exit cleanly; see target/chassis_bridge_serial_test.log"
+        try:
+            stop_binary(proc)
+        finally:
+            board.stop.set()
+            board.join(timeout=5)
+            os.close(master)
+            os.close(slave)
 
 
 def test_the_serial_chassis_obeys_within_limits_and_reports_odometry(rig):
@@ -166,16 +159,13 @@ def test_a_missing_device_is_retried_and_the_bridge_keeps_serving(tmp_path):
     params = tmp_path / "chassis.yaml"
     params.write_text("chassis_bridge:\n  ros__parameters:\n    backend: serial\n    serial:\n      device: /dev/patrol-no-such-tty\n")
     log_path = ROOT / "target" / "chassis_bridge_no_device_test.log"
-    with open(log_path, "w") as log:
-        env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id(26)), RUST_LOG="chassis_bridge=info,warn")
-        proc = subprocess.Popen([str(BRIDGE), "--params-file", str(params)], env=env, stdout=log, stderr=log)
-        deadline = time.time() + 20
-        while time.time() < deadline and "cannot open" not in log_path.read_text():
-            time.sleep(0.1)
-        time.sleep(2.5)  # two more retries
-        assert proc.poll() is None, "the bridge gave up on a missing device"
-        proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=15) == 0
+    proc = start_bridge(domain_id(26), params, log_path.name)
+    deadline = time.time() + 20
+    while time.time() < deadline and "cannot open" not in log_path.read_text():
+        time.sleep(0.1)
+    time.sleep(2.5)  # two more retries
+    assert proc.poll() is None, "the bridge gave up on a missing device"
+    stop_binary(proc)
     text = log_path.read_text()
     assert text.count("cannot open /dev/patrol-no-such-tty") == 1, "one error per outage, not one per retry"
     assert "retrying every 1 s" in text

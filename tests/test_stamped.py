@@ -3,9 +3,6 @@
 with the same setting drives on it. Both real binaries on a domain of their own, the sim back end
 closing the loop on the bundled map."""
 import math
-import os
-import signal
-import subprocess
 import time
 
 import pytest
@@ -13,9 +10,7 @@ import rclpy
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
 
-from conftest import BINARY, ROOT, Ros, domain_id, stamped, start_node, stop_node
-
-BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
+from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
 GOAL = (2.5, 0.3)  # 2.4 m from the simulated car's start at (0.1, 0.1), round no obstacle
 
 
@@ -31,18 +26,16 @@ def stamped_rig(tmp_path_factory):
     bridge_params.write_text("chassis_bridge:\n  ros__parameters:\n    enable_stamped_cmd_vel: true\n")
     domain = domain_id(75)
     node = start_node(domain, node_params, "patrol_planner_stamped_test.log")
-    log = open(ROOT / "target" / "chassis_bridge_stamped_test.log", "w")
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG="chassis_bridge=info,warn")
-    bridge = subprocess.Popen([str(BRIDGE), "--params-file", str(bridge_params)], env=env, stdout=log, stderr=log)
+    bridge = start_bridge(domain, bridge_params, "chassis_bridge_stamped_test.log")
     ros = Ros(domain, context=rclpy.Context())
     try:
         yield ros
     finally:
         ros.close()
-        bridge.send_signal(signal.SIGINT)
-        assert bridge.wait(timeout=15) == 0
-        log.close()
-        stop_node(node)
+        try:
+            stop_binary(bridge)
+        finally:
+            stop_binary(node)
 
 
 def test_stamped_cmd_vel_drives_the_car(stamped_rig):

@@ -5,9 +5,6 @@ entering an occupied cell (checked from /odom), every /cmd_vel and /wheel_cmd st
 0.6 m/s and 0.4 rad/s, and cutting /cmd_vel stops the wheels within the watchdog's timeout.
 Runs after test_node.py (which needs a node that has never heard /odom)."""
 import math
-import os
-import signal
-import subprocess
 import time
 
 import numpy as np
@@ -16,9 +13,8 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import Float64MultiArray
 
-from conftest import BINARY, ROOT, domain_id, stamped
+from conftest import ROOT, domain_id, stamped, start_bridge, stop_binary
 
-BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
 R, B = 0.08, 0.40  # config/chassis.yaml's wheel radius and separation
 GOAL = (8.1, 6.9)
 
@@ -48,14 +44,9 @@ def bundled_map():
 
 @pytest.fixture(scope="module")
 def bridge(ros):
-    assert BRIDGE.exists(), f"{BRIDGE} is missing: cargo build --release -p chassis-bridge"
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id()), RUST_LOG="info")
-    log = open(ROOT / "target" / "chassis_bridge_test.log", "w")
-    proc = subprocess.Popen([str(BRIDGE), "--params-file", str(ROOT / "config" / "chassis.yaml")], env=env, stdout=log, stderr=log)
+    proc = start_bridge(domain_id(), ROOT / "config" / "chassis.yaml", "chassis_bridge_test.log", "info")
     yield proc
-    proc.send_signal(signal.SIGINT)
-    assert proc.wait(timeout=15) == 0
-    log.close()
+    stop_binary(proc)
 
 
 def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(ros, bridge):

@@ -213,6 +213,7 @@ impl Link {
 }
 
 async fn run(p: Params) -> Result<()> {
+    let mut signals = ros_edge::ShutdownSignals::new()?;
     let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(
         NodeName::new("/", "chassis_bridge")?,
@@ -314,7 +315,6 @@ async fn run(p: Params) -> Result<()> {
     // The last command sent, for the acceleration limits.
     let mut sent = Twist2::STOP;
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(dt));
-    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     info!(
         "chassis_bridge ({}) on ROS_DOMAIN_ID {domain}: {} Hz, timeout {} s, /cmd_vel as {}",
         match p.backend {
@@ -332,8 +332,10 @@ async fn run(p: Params) -> Result<()> {
     loop {
         tokio::select! {
             _ = ticker.tick() => {}
-            _ = tokio::signal::ctrl_c() => break,
-            _ = term.recv() => break,
+            name = signals.recv() => {
+                info!("{name}: shutting down");
+                break;
+            }
         }
         let (cmd, fresh) = {
             let mut g = latest.lock().expect("lock");

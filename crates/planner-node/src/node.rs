@@ -47,6 +47,7 @@ use std::sync::{Arc, RwLock};
 
 /// Runs the node until Ctrl-C or SIGTERM.
 pub async fn run(params: NodeParams) -> Result<()> {
+    let mut signals = ros_edge::ShutdownSignals::new()?;
     let live = Live {
         planner: params.planning.planner.clone(),
         max_planning_time: params.planning.max_planning_time,
@@ -286,11 +287,8 @@ pub async fn run(params: NodeParams) -> Result<()> {
         "patrol_planner ready on ROS_DOMAIN_ID {domain}: planner {}, frame {}",
         live.planner, params.global_frame
     );
-    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
-    tokio::select! {
-        _ = tokio::signal::ctrl_c() => info!("Ctrl-C: shutting down"),
-        _ = term.recv() => info!("SIGTERM: shutting down"),
-    }
+    let name = signals.recv().await;
+    info!("{name}: shutting down");
     ros_edge::logging::stop_forwarding();
     tasks.shutdown().await;
     // Dropping the node stops its spinner, which holds the node's own endpoints (parameter

@@ -1,6 +1,6 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
 //! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header
-//! stamps from the system clock, the reliable QoS profile set explicitly on every topic
+//! stamps from the system clock, SIGINT and SIGTERM, the reliable QoS profile set explicitly on every topic
 //! (ros2-client's defaults differ from rclpy's), and logging to the terminal and `/rosout`.
 
 pub mod logging;
@@ -13,6 +13,7 @@ use ros2_client::{Context, ContextOptions, QosProfile};
 use std::future::Future;
 use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
+use tokio::signal::unix::{signal, Signal, SignalKind};
 
 /// The domain from `ROS_DOMAIN_ID` (0 when unset or empty), as every ROS 2 node reads it;
 /// ros2-client would otherwise always start on domain 0.
@@ -71,6 +72,34 @@ pub fn reliable(depth: usize, durability: Durability) -> QosProfile {
         .reliability_reliable(WhenFull::DEFAULT)
         .durability(durability)
         .history(History::KeepLast { depth })
+}
+
+/// SIGINT (Ctrl-C) and SIGTERM, caught from the moment this is made until the binary is done.
+///
+/// One stream per signal, made once: a `tokio::signal::ctrl_c()` future made afresh in a loop
+/// only sees a signal that lands while it is being polled, so a Ctrl-C between two ticks was
+/// lost (CI saw the chassis bridge ignore SIGINT under load).
+pub struct ShutdownSignals {
+    interrupt: Signal,
+    terminate: Signal,
+}
+
+impl ShutdownSignals {
+    /// Starts catching both signals; call it inside the tokio runtime.
+    pub fn new() -> Result<Self> {
+        Ok(Self {
+            interrupt: signal(SignalKind::interrupt()).context("catching SIGINT")?,
+            terminate: signal(SignalKind::terminate()).context("catching SIGTERM")?,
+        })
+    }
+
+    /// Waits for either signal (or returns at once for one already caught), and names it.
+    pub async fn recv(&mut self) -> &'static str {
+        tokio::select! {
+            _ = self.interrupt.recv() => "SIGINT",
+            _ = self.terminate.recv() => "SIGTERM",
+        }
+    }
 }
 
 /// Runs a ROS 2 binary's async main on the two-thread tokio runtime both binaries use.
