@@ -61,7 +61,15 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
     ros.spin_until(arrived, 60, "the car to reach the goal on stamped commands")
     # The bridge also broadcasts odom -> base_link on /tf (tf2_msgs has no PyPI wheel to decode it
     # here; its encoding is checked in msgs/tests/golden.rs): it is on the graph with its type.
-    published = dict(ros.node.get_publisher_names_and_types_by_node("chassis_bridge", "/"))
+    # rclpy learns node names from /ros_discovery_info, which can lag the topics under load.
+    def bridge_publications():
+        try:
+            published = dict(ros.node.get_publisher_names_and_types_by_node("chassis_bridge", "/"))
+        except rclpy.node.NodeNameNonExistentError:
+            return None
+        return published if "/tf" in published else None
+
+    published = ros.spin_until(bridge_publications, 10, "chassis_bridge's /tf on the ROS graph")
     assert published.get("/tf") == ["tf2_msgs/msg/TFMessage"], published
     moving = [c for c in cmds if c.twist.linear.x > 0.05]
     assert moving, "no TwistStamped command moved the car"
