@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import Twist, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import Float64MultiArray
 
@@ -89,6 +89,10 @@ def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(r
 
     ros.spin_until(arrived, 120, "the car to reach the goal")
     print(f"\ndriving time from goal to arrival: {time.time() - sent:.1f} s")
+    # The node ends its drive with an explicit stop, as Nav2's controller does, rather than
+    # leaving the chassis on its last command until the bridge's watchdog trips.
+    last = cmds[-1]
+    assert last.linear.x == 0.0 and last.angular.z == 0.0, f"the last /cmd_vel was {last}"
 
     # Never in an occupied (or unknown) cell of the test's own map.
     for m in odom:
@@ -107,7 +111,7 @@ def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(r
     ros.wait_matched(cmd_pub, "/cmd_vel")
     end = time.time() + 1.0
     while time.time() < end:
-        cmd_pub.publish(Twist(linear=__import__("geometry_msgs.msg", fromlist=["Vector3"]).Vector3(x=0.3)))
+        cmd_pub.publish(Twist(linear=Vector3(x=0.3)))
         ros.spin_until(lambda: True, 0.05, "")
     assert any(abs(w.data[0]) > 0.1 for w in wheels[-20:]), "the bridge ignored /cmd_vel"
     cut = time.time()

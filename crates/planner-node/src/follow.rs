@@ -6,12 +6,17 @@ use crate::state::Shared;
 use chassis_bridge::follower::Status as FollowStatus;
 use chassis_bridge::Twist2;
 use log::{info, warn};
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Duration;
 
 /// The follower loop: at `control_rate_hz`, the next command for the plan being followed, from
 /// the latest `/odom`, within the twist and acceleration limits. It stops when odometry is stale
 /// and when the goal is reached (within position and heading tolerance).
+///
+/// Every drive ends on an exact zero command, as Nav2's controller ends one: when the goal is
+/// reached, or the plan fails, the loop keeps braking within the acceleration limits until it
+/// has sent a stop, and only then goes quiet (leaving `/cmd_vel` to teleop or anyone else).
 pub async fn follow(s: Arc<Shared>, o: Outputs) {
     let dt = 1.0 / s.params.control_rate_hz;
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(dt));
@@ -27,19 +32,19 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
             .map(|(p, _)| p);
         let cmd = {
             let mut guard = s.follower.lock().expect("lock");
-            let Some(f) = guard.as_mut() else {
-                previous = Twist2::STOP;
-                continue;
-            };
-            match pose {
-                None => {
+            match (guard.as_mut(), pose) {
+                // No plan, and the last command sent was a stop: nothing to say.
+                (None, _) if previous == Twist2::STOP => continue,
+                // The drive ended (goal reached, plan failed): brake down to a stop.
+                (None, _) => Twist2::STOP,
+                (Some(_), None) => {
                     if !stale_reported {
                         warn!("following paused: no /odom for {} s", s.params.pose_timeout);
                         stale_reported = true;
                     }
                     Twist2::STOP
                 }
-                Some(p) => {
+                (Some(f), Some(p)) => {
                     stale_reported = false;
                     let (cmd, status) = f.command(
                         &chassis_bridge::sim::Pose {
@@ -59,6 +64,7 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
         };
         let applied = s.params.twist_limits.apply(cmd, previous, dt);
         previous = applied;
+        s.moving.store(applied != Twist2::STOP, Ordering::SeqCst);
         o.drive(&s, applied).await;
     }
 }

@@ -31,6 +31,7 @@ use crate::params::{validate_parameter, NodeParams};
 use crate::planning::{self, install_map};
 use crate::state::{Live, Shared};
 use anyhow::Result;
+use chassis_bridge::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
@@ -42,7 +43,7 @@ use ros2_client::{
     MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, QosProfile, ServiceMapping,
     ServiceTypeName,
 };
-use std::sync::atomic::AtomicU64;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
 
 /// Runs the node until Ctrl-C or SIGTERM.
@@ -69,6 +70,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
         )),
         odom: RwLock::new(None),
         follower: std::sync::Mutex::new(None),
+        moving: AtomicBool::new(false),
     });
     let on_set = shared.clone();
     let options = NodeOptions::new()
@@ -289,8 +291,14 @@ pub async fn run(params: NodeParams) -> Result<()> {
     );
     let name = signals.recv().await;
     info!("{name}: shutting down");
-    ros_edge::logging::stop_forwarding();
     tasks.shutdown().await;
+    // As Nav2's controller does when it goes down: a robot still moving gets a last stop, rather
+    // than driving on its last command until the chassis' own timeout.
+    if shared.moving.load(Ordering::SeqCst) {
+        out.drive(&shared, Twist2::STOP).await;
+        info!("/cmd_vel: stopped the robot");
+    }
+    ros_edge::logging::stop_forwarding();
     // Dropping the node stops its spinner, which holds the node's own endpoints (parameter
     // services, rosout); they must go before the participant does, when `context` drops.
     drop(node);

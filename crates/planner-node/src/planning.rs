@@ -7,7 +7,7 @@ use crate::inputs::GoalSlot;
 use crate::outputs::Outputs;
 use crate::state::{MapState, Shared};
 use chassis_bridge::follower::Follower;
-use chassis_bridge::Twist2;
+
 use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::geometry::{Point2, Pose2};
@@ -205,7 +205,8 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         }
         let path = o.publish(&s, &outcome).await;
         if s.params.follow_plan {
-            // A new plan replaces the one being followed; a failed goal stops the robot.
+            // A new plan replaces the one being followed; a failed goal stops the robot (the
+            // follower loop brakes it within the acceleration limits).
             let next = path.and_then(|p| {
                 let pts = p
                     .poses
@@ -218,11 +219,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                     outcome.result.as_ref().map_or(0.0, |r| r.1),
                 )
             });
-            let stop = next.is_none();
             *s.follower.lock().expect("lock") = next;
-            if stop {
-                o.drive(&s, Twist2::STOP).await;
-            }
         }
     }
 }

@@ -8,7 +8,7 @@ use chassis_bridge::follower::Follower;
 use planner_core::geometry::Pose2;
 use planner_core::grid::GridMap;
 use planner_core::inflation::PlanningGrid;
-use std::sync::atomic::AtomicU64;
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
 
@@ -41,4 +41,6 @@ pub struct Shared {
     pub odom: RwLock<Option<(Pose2, Instant)>>,
     /// The plan being followed, if any.
     pub follower: Mutex<Option<Follower>>,
+    /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
+    pub moving: AtomicBool,
 }
