@@ -4,7 +4,7 @@
 
 use patrol_msgs::builtin_interfaces::Time;
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Vector3};
+use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Vector3};
 use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
 use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
@@ -68,7 +68,7 @@ pub fn yaw_from_quaternion(q: &Quaternion) -> Result<f64, Failure> {
 /// Position and heading of a stamped pose in the global frame: the frame must be the global one
 /// or empty (Nav2 treats empty as the global frame), the numbers finite.
 pub fn pose_in_frame(msg: &PoseStamped, global_frame: &str) -> Result<Pose2, Failure> {
-    let frame = msg.header.frame_id.trim_start_matches('/');
+    let frame = frame_name(&msg.header.frame_id);
     if !frame.is_empty() && frame != global_frame {
         return Err(Failure::new(
             "TF_ERROR",
@@ -76,6 +76,11 @@ pub fn pose_in_frame(msg: &PoseStamped, global_frame: &str) -> Result<Pose2, Fai
         ));
     }
     pose2(&msg.pose)
+}
+
+/// A frame id without the leading slash ROS 1 allowed (tf2 ignores it too).
+pub fn frame_name(frame_id: &str) -> &str {
+    frame_id.trim_start_matches('/')
 }
 
 /// A header stamp in seconds.
@@ -93,6 +98,18 @@ pub fn pose2(p: &Pose) -> Result<Pose2, Failure> {
         ));
     }
     Ok(Pose2::new(x, y, yaw_from_quaternion(&p.orientation)?))
+}
+
+/// A transform's planar part (translation and heading), refusing NaN and infinities.
+pub fn transform2(t: &Transform) -> Result<Pose2, Failure> {
+    let v = &t.translation;
+    if !(v.x.is_finite() && v.y.is_finite() && v.z.is_finite()) {
+        return Err(Failure::new(
+            "INVALID_INPUT",
+            format!("translation ({}, {}, {}) is not finite", v.x, v.y, v.z),
+        ));
+    }
+    Ok(Pose2::new(v.x, v.y, yaw_from_quaternion(&t.rotation)?))
 }
 
 /// A received map, validated like every other map.
@@ -312,6 +329,33 @@ mod tests {
             ..Quaternion::default()
         };
         assert_eq!(yaw_from_quaternion(&nan).unwrap_err().code, "INVALID_INPUT");
+    }
+
+    #[test]
+    fn transforms_give_their_planar_part_and_refuse_non_finite_numbers() {
+        let t = Transform {
+            translation: Vector3 {
+                x: 2.0,
+                y: -1.0,
+                z: 0.3,
+            },
+            rotation: quaternion_from_yaw(0.5),
+        };
+        let p = transform2(&t).unwrap();
+        assert!((p.x - 2.0).abs() < 1e-12 && (p.y + 1.0).abs() < 1e-12);
+        assert!((p.yaw - 0.5).abs() < 1e-12);
+        let mut bad = t;
+        bad.translation.y = f64::INFINITY;
+        assert_eq!(transform2(&bad).unwrap_err().code, "INVALID_INPUT");
+        bad = t;
+        bad.rotation = Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 0.0,
+        };
+        assert_eq!(transform2(&bad).unwrap_err().code, "INVALID_INPUT");
+        assert_eq!(frame_name("/map"), "map");
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! The node's inputs, one task each: maps from `/map`, start poses from `/initialpose`,
-//! `/amcl_pose` and `/odom`, and goals from `/goal_pose`. Each message is checked on arrival; a
+//! `/amcl_pose` and `/odom`, `map -> odom` from `/tf` and `/tf_static`, and goals from
+//! `/goal_pose`. Each message is checked on arrival; a
 //! bad one is answered on `/diagnostics` (maps, goals) or logged (poses), and the task goes on.
 
 use crate::convert::{self, Failure};
@@ -9,6 +10,7 @@ use crate::state::Shared;
 use log::{error, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
+use patrol_msgs::tf2_msgs::TFMessage;
 use planner_core::geometry::Pose2;
 use ros2_client::Subscription;
 use std::sync::atomic::Ordering;
@@ -98,6 +100,42 @@ pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
                 *s.odom.write().expect("lock") = Some((in_map, Instant::now()));
             }
             Err(f) => warn!("/odom ignored: {}", f.message),
+        }
+    }
+}
+
+/// `/tf` or `/tf_static` (`name`): a `global_frame -> odom_frame` transform (AMCL, slam_toolbox,
+/// cartographer, a static publisher) becomes the node's `map -> odom`, as a TF lookup would make
+/// it; the other transforms on the topic (the chassis' `odom -> base_link`, ...) are not its
+/// business. Only spawned with `track_map_to_odom`.
+pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscription<TFMessage>) {
+    let (parent, child) = (s.params.global_frame.as_str(), s.params.odom_frame.as_str());
+    let mut announced = false;
+    loop {
+        let Ok((msg, _)) = sub.async_take().await else {
+            continue;
+        };
+        let ours = msg.transforms.iter().filter(|t| {
+            convert::frame_name(&t.header.frame_id) == parent
+                && convert::frame_name(&t.child_frame_id) == child
+        });
+        for t in ours {
+            match convert::transform2(&t.transform) {
+                Ok(p) => {
+                    s.localization.lock().expect("lock").set_map_to_odom(p);
+                    // AMCL and SLAM send one per update: only the first is worth a line.
+                    let level = if announced { Level::Debug } else { Level::Info };
+                    announced = true;
+                    log!(
+                        level,
+                        "{name}: {parent} -> {child} now ({:.3}, {:.3}, {:.3} rad)",
+                        p.x,
+                        p.y,
+                        p.yaw
+                    );
+                }
+                Err(f) => warn!("{name}: {parent} -> {child} ignored: {}", f.message),
+            }
         }
     }
 }

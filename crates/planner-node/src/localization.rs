@@ -66,6 +66,16 @@ impl Localization {
         pose(&(self.map_to_odom * o))
     }
 
+    /// A `map -> odom` transform from whoever localizes the robot and says so on `/tf` (AMCL,
+    /// slam_toolbox): it replaces the estimate as a TF lookup would. Ignored, returning false,
+    /// when not tracking.
+    pub fn set_map_to_odom(&mut self, map_to_odom: Pose2) -> bool {
+        if self.track {
+            self.map_to_odom = iso(map_to_odom);
+        }
+        self.track
+    }
+
     /// A map-frame pose of the robot at `stamp` (s; 0 for "now", as hand-made messages often
     /// carry). Re-anchors `map -> odom` on the odometry nearest that time and returns the new
     /// transform; `None` when not tracking or no odometry has arrived yet.
@@ -128,6 +138,20 @@ mod tests {
         // A zero stamp means "now": the latest odometry (x = 1.0).
         l.anchor(0.0, Pose2::new(3.0, 0.0, 0.0)).unwrap();
         assert!(close(l.map_to_odom(), Pose2::new(2.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn a_transform_from_tf_replaces_the_estimate_when_tracking() {
+        let mut l = Localization::new(Pose2::new(0.0, 0.0, 0.0), true);
+        l.odometry(1.0, Pose2::new(0.0, 0.0, 0.0));
+        l.anchor(1.0, Pose2::new(5.0, 5.0, 0.0)).unwrap();
+        assert!(l.set_map_to_odom(Pose2::new(2.0, 1.0, FRAC_PI_2)));
+        // odom (1, 0) is (2, 2) in the map: turned to +y, then shifted.
+        let p = l.odometry(1.1, Pose2::new(1.0, 0.0, 0.0));
+        assert!(close(p, Pose2::new(2.0, 2.0, FRAC_PI_2)), "{p:?}");
+        let mut fixed = Localization::new(Pose2::new(0.5, 0.0, 0.0), false);
+        assert!(!fixed.set_map_to_odom(Pose2::new(2.0, 1.0, 0.0)));
+        assert!(close(fixed.map_to_odom(), Pose2::new(0.5, 0.0, 0.0)));
     }
 
     #[test]

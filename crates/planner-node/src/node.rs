@@ -36,6 +36,7 @@ use log::{error, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
+use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::geometry::Pose2;
 use ros2_client::{
@@ -175,6 +176,17 @@ pub async fn run(params: NodeParams) -> Result<()> {
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
     let odom_topic = topic(&mut node, "/", "odom", "nav_msgs", "Odometry", &best_effort)?;
     let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort))?;
+    // map -> odom as AMCL or a SLAM node broadcasts it, with tf2's listener QoS: /tf reliable
+    // and volatile (depth 100), /tf_static reliable and transient local.
+    let mut tf_subs = Vec::new();
+    if params.track_map_to_odom {
+        let tf_qos = ros_edge::reliable(100, Durability::Volatile);
+        for (name, qos) in [("/tf", &tf_qos), ("/tf_static", &latched)] {
+            let t = topic(&mut node, "/", &name[1..], "tf2_msgs", "TFMessage", qos)?;
+            let sub = node.create_subscription::<TFMessage>(&t, Some(qos.clone()))?;
+            tf_subs.push((name, sub));
+        }
+    }
     let service_qos = ros_edge::reliable(10, Durability::Volatile);
     let server = node.create_server::<GetPlanRequest, GetPlanResponse>(
         ServiceMapping::Enhanced,
@@ -271,6 +283,9 @@ pub async fn run(params: NodeParams) -> Result<()> {
         amcl_sub,
     ));
     tasks.spawn(inputs::receive_odometry(shared.clone(), odom_sub));
+    for (name, sub) in tf_subs {
+        tasks.spawn(inputs::receive_transforms(shared.clone(), name, sub));
+    }
     let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
     tasks.spawn(inputs::receive_goals(
         shared.clone(),

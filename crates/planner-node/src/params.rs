@@ -25,9 +25,12 @@ pub struct NodeParams {
     /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
     /// default: odometry is the map frame, as for the simulated chassis).
     pub map_to_odom: [f64; 3],
-    /// Re-estimate `map -> odom` from every `/initialpose` and `/amcl_pose` (the transform AMCL
-    /// publishes) instead of keeping `map_to_odom` fixed.
+    /// Re-estimate `map -> odom` instead of keeping `map_to_odom` fixed: from each
+    /// `global_frame -> odom_frame` transform on `/tf` or `/tf_static` (AMCL, slam_toolbox,
+    /// cartographer, a static publisher) and by anchoring each `/initialpose` and `/amcl_pose`.
     pub track_map_to_odom: bool,
+    /// The odometry frame, the child of `global_frame` on `/tf` (AMCL's `odom_frame_id`).
+    pub odom_frame: String,
     /// Publish every Pareto-front path on `/patrol_planner/pareto` for RViz.
     pub publish_pareto: bool,
     /// Follow each goal's plan: publish `/cmd_vel` from `/odom` (regulated pure pursuit).
@@ -55,6 +58,7 @@ impl Default for NodeParams {
             global_frame: "map".into(),
             map_to_odom: [0.0; 3],
             track_map_to_odom: true,
+            odom_frame: "odom".into(),
             publish_pareto: true,
             follow_plan: true,
             twist_limits: TwistLimits::default(),
