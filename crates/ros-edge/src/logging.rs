@@ -65,11 +65,22 @@ fn rosout_level(level: log::Level) -> LogLevel {
     }
 }
 
-/// Installs the logger: `RUST_LOG` filtering (default `info`) for everything, and records whose
+/// The filter without `RUST_LOG`: `info` for the binary's own records, `warn` for its
+/// dependencies (RustDDS logs every discovery step at `info`, dozens of lines a second at start).
+fn default_filter(own: &[&str]) -> String {
+    std::iter::once("warn".to_string())
+        .chain(own.iter().map(|p| format!("{p}=info")))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// Installs the logger: `RUST_LOG` filtering (by default [`default_filter`]), and records whose
 /// module path starts with one of `own` also to `/rosout` once [`forward_to_rosout`] is called.
 pub fn init(own: &'static [&'static str]) {
-    let terminal =
-        env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info")).build();
+    let terminal = env_logger::Builder::from_env(
+        env_logger::Env::default().default_filter_or(default_filter(own)),
+    )
+    .build();
     let max = terminal.filter();
     if log::set_boxed_logger(Box::new(TeeLogger { terminal, own })).is_ok() {
         log::set_max_level(max);
@@ -96,6 +107,7 @@ pub fn stop_forwarding() {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use log::Log as _;
 
     #[test]
     fn levels_map_to_rcl() {
@@ -103,6 +115,21 @@ mod tests {
         assert_eq!(rosout_level(log::Level::Warn) as u8, 30);
         assert_eq!(rosout_level(log::Level::Info) as u8, 20);
         assert_eq!(rosout_level(log::Level::Trace) as u8, 10);
+    }
+
+    #[test]
+    fn by_default_own_records_from_info_and_dependencies_from_warn() {
+        let filter = default_filter(&["patrol_planner", "planner_core"]);
+        assert_eq!(filter, "warn,patrol_planner=info,planner_core=info");
+        let logger = env_logger::Builder::new().parse_filters(&filter).build();
+        let at = |level, target| {
+            logger.enabled(&log::Metadata::builder().level(level).target(target).build())
+        };
+        assert!(at(log::Level::Info, "patrol_planner::planning"));
+        assert!(at(log::Level::Info, "planner_core"));
+        assert!(!at(log::Level::Debug, "patrol_planner::planning"));
+        assert!(!at(log::Level::Info, "rustdds::rtps::writer"));
+        assert!(at(log::Level::Warn, "rustdds::rtps::writer"));
     }
 
     #[test]
