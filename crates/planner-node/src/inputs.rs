@@ -1,7 +1,7 @@
 //! The node's inputs, one task each: maps from `/map`, start poses from `/initialpose`,
 //! `/amcl_pose` and `/odom`, `map -> odom` from `/tf` and `/tf_static`, and goals from
-//! `/goal_pose`. Each message is checked on arrival; a
-//! bad one is answered on `/diagnostics` (maps, goals) or logged (poses), and the task goes on.
+//! `/goal_pose`. Each message is checked on arrival; a bad one is answered on `/diagnostics`
+//! (maps, goals) or logged (poses, transforms), and the task goes on.
 
 use crate::convert::{self, Failure};
 use crate::outputs::Outputs;
