@@ -23,13 +23,25 @@ use std::time::{Duration, Instant};
 const ODOM: (f64, f64) = (0.1, 0.1);
 const GOAL: (f64, f64) = (6.0, 0.5);
 
-/// The node under test; killed when the test ends, passing or not.
-struct NodeProcess(Child);
+/// The node under test, its output in `log`; killed when the test ends, passing or not, and
+/// its log shown when failing.
+struct NodeProcess {
+    child: Child,
+    log: std::path::PathBuf,
+}
 
 impl Drop for NodeProcess {
     fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if std::thread::panicking() {
+            let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+            let lines: Vec<&str> = text.lines().collect();
+            eprintln!("patrol_planner's log ({}):", self.log.display());
+            for line in &lines[lines.len().saturating_sub(30)..] {
+                eprintln!("  {line}");
+            }
+        }
     }
 }
 
@@ -121,16 +133,20 @@ async fn plans_start_where_the_latest_map_to_odom_puts_the_robot() {
         ),
     )
     .unwrap();
-    let _node = NodeProcess(
-        Command::new(env!("CARGO_BIN_EXE_patrol_planner"))
+    let log = folder.join("patrol_planner.log");
+    let output = std::fs::File::create(&log).unwrap();
+    let _node = NodeProcess {
+        child: Command::new(env!("CARGO_BIN_EXE_patrol_planner"))
             .arg("--params-file")
             .arg(&params)
             .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("RUST_LOG", "warn")
+            .env("RUST_LOG", "patrol_planner=info,warn")
             .stdout(Stdio::null())
+            .stderr(output)
             .spawn()
             .expect("starting patrol_planner"),
-    );
+        log,
+    };
 
     let context = Context::with_options(ContextOptions::new().domain_id(domain)).unwrap();
     let mut node = context
