@@ -75,6 +75,19 @@ class Ros:
             lambda: next((d for d in self.diagnostics_since(index) if d[0] == code), None), timeout, f"result {code} on /diagnostics"
         )
 
+    def send_goal_until_planned(self, goal, timeout=30):
+        """Publishes the PoseStamped `goal` once a second until a non-empty /plan answers (a goal
+        that overtakes the node's map or odometry on the wire gets an error: ask again)."""
+        self.wait_matched(self.goal_pub, "/goal_pose")
+
+        def planned():
+            before = len(self.plans)
+            self.goal_pub.publish(goal)
+            self.spin_for(1.0)
+            return any(p.poses for p in self.plans[before:])
+
+        self.spin_until(planned, timeout, "a plan to the goal")
+
     def spin_for(self, seconds):
         deadline = time.time() + seconds
         while time.time() < deadline:

@@ -44,15 +44,7 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
     ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
     ros.node.create_subscription(TwistStamped, "/cmd_vel", cmds.append, 100)
     ros.spin_until(lambda: odom, 20, "/odom from the simulated chassis")
-    ros.wait_matched(ros.goal_pub, "/goal_pose")
-
-    def planned():
-        before = len(ros.plans)
-        ros.goal_pub.publish(stamped(*GOAL))
-        ros.spin_for(1.0)
-        return any(p.poses for p in ros.plans[before:])
-
-    ros.spin_until(planned, 30, "a plan to the goal")
+    ros.send_goal_until_planned(stamped(*GOAL))
 
     def arrived():
         p = odom[-1].pose.pose.position

@@ -60,15 +60,7 @@ def moving(t):
 
 def drive_to(ros, cmds, goal):
     """Sends `goal` until the node answers with a plan, then waits until it drives."""
-    ros.wait_matched(ros.goal_pub, "/goal_pose")
-
-    def planned():
-        before = len(ros.plans)
-        ros.goal_pub.publish(stamped(*goal))
-        ros.spin_for(1.0)
-        return any(p.poses for p in ros.plans[before:])
-
-    ros.spin_until(planned, 30, "a plan to the goal")
+    ros.send_goal_until_planned(stamped(*goal))
     before = len(cmds)
     ros.spin_until(lambda: any(moving(t) for t in cmds[before:]), 10, "the node to drive")
     ros.spin_for(1.0)  # up to speed (or turning)

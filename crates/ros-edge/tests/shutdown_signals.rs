@@ -13,18 +13,13 @@ fn send_to_self(signal: libc::c_int) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_signal_between_waits_is_not_lost() {
     let mut signals = ShutdownSignals::new().expect("signal handlers");
-    // Busy elsewhere (a control tick) when SIGINT arrives; only then waiting for it.
-    send_to_self(libc::SIGINT);
-    tokio::time::sleep(Duration::from_millis(50)).await;
-    let name = tokio::time::timeout(Duration::from_secs(5), signals.recv())
-        .await
-        .expect("the SIGINT sent before waiting was lost");
-    assert_eq!(name, "SIGINT");
-
-    send_to_self(libc::SIGTERM);
-    tokio::time::sleep(Duration::from_millis(50)).await;
-    let name = tokio::time::timeout(Duration::from_secs(5), signals.recv())
-        .await
-        .expect("the SIGTERM sent before waiting was lost");
-    assert_eq!(name, "SIGTERM");
+    for (signal, name) in [(libc::SIGINT, "SIGINT"), (libc::SIGTERM, "SIGTERM")] {
+        // Busy elsewhere (a control tick) when the signal arrives; only then waiting for it.
+        send_to_self(signal);
+        tokio::time::sleep(Duration::from_millis(50)).await;
+        let got = tokio::time::timeout(Duration::from_secs(5), signals.recv())
+            .await
+            .unwrap_or_else(|_| panic!("the {name} sent before waiting was lost"));
+        assert_eq!(got, name);
+    }
 }
