@@ -98,6 +98,10 @@ struct PlanOutput<'a> {
     best_iteration: Option<u64>,
     counters: &'a std::collections::BTreeMap<String, f64>,
     notes: &'a [String],
+    /// Best objective value after each iteration.
+    convergence: &'a [f64],
+    /// The Pareto front (multi-objective planners): each member's length and turning.
+    pareto: Vec<[f64; 2]>,
     waypoints: Vec<[f64; 2]>,
 }
 
@@ -136,6 +140,12 @@ pub fn plan_command(
         best_iteration: plan.stats.best_iteration,
         counters: &plan.stats.counters,
         notes: &plan.stats.notes,
+        convergence: &plan.stats.convergence,
+        pareto: plan
+            .pareto
+            .iter()
+            .map(|m| [m.f1_length_m, m.f2_turning_rad])
+            .collect(),
         waypoints: plan.waypoints.iter().map(|p| [p.x, p.y]).collect(),
     };
     println!("{}", serde_json::to_string(&out)?);
