@@ -1,6 +1,6 @@
 """chassis_bridge's serial back end from outside: the real binary talks to a fake motor controller
 on a pseudo-terminal (no hardware), written here from the protocol's description
-(crates/chassis-bridge/src/protocol.rs), while rclpy drives it on /cmd_vel and reads /odom. The
+(crates/chassis/src/protocol.rs), while rclpy drives it on /cmd_vel and reads /odom. The
 board obeys the $CMD lines and reports $ENC counts; the test checks every command the board got
 against the 0.6 m/s and 0.4 rad/s limits, /odom against the board's true pose, the stop when
 /cmd_vel stops, and that /odom pauses while the board is silent and comes back after."""

@@ -1,10 +1,11 @@
 //! The chassis back ends behind one trait: what the bridge drives each control period. `sim`
-//! integrates the unicycle model (no hardware, the default); `serial` (serial.rs) talks to a motor
-//! controller over a serial line and reads its encoders back into odometry.
+//! integrates the unicycle model of the chassis crate (no hardware, the default); `serial`
+//! (serial.rs) talks to a motor controller over a serial line and reads its encoders back into
+//! odometry.
 
-use crate::kinematics::DiffDrive;
-use crate::sim::{Pose, Unicycle};
-use crate::Twist2;
+use chassis::kinematics::DiffDrive;
+use chassis::sim::Unicycle;
+use chassis::{Pose, Twist2};
 use thiserror::Error;
 
 /// Odometry in the odom frame: the pose and the twist that moved it.

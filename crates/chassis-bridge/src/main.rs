@@ -1,26 +1,28 @@
 //! `chassis_bridge`: the ROS 2 edge of the chassis. Subscribes `/cmd_vel` (geometry_msgs/Twist,
 //! or TwistStamped with `enable_stamped_cmd_vel`, as Jazzy's diff_drive_controller takes it) and
-//! `/patrol_planner/twist_limits`; clamps every command (limits.rs) and stops when commands stop
-//! (watchdog.rs); publishes the wheel speeds on `/wheel_cmd` (std_msgs/Float64MultiArray,
-//! [left, right] in rad/s) and sends them to the chassis back end (chassis.rs): `sim`, the
-//! simulated car, or `serial`, a motor controller on a serial line (serial.rs). Either way the
-//! odometry comes back on `/odom` (nav_msgs/Odometry, odom -> base_link) and, with `publish_tf`,
-//! as the odom -> base_link transform on `/tf`, as diff_drive_controller publishes it.
+//! `/patrol_planner/twist_limits`; clamps every command (the chassis crate's limits.rs) and stops
+//! when commands stop (its watchdog.rs); publishes the wheel speeds on `/wheel_cmd`
+//! (std_msgs/Float64MultiArray, [left, right] in rad/s) and sends them to the chassis back end
+//! (chassis.rs): `sim`, the simulated car, or `serial`, a motor controller on a serial line
+//! (serial.rs). Either way the odometry comes back on `/odom` (nav_msgs/Odometry, odom ->
+//! base_link) and, with `publish_tf`, as the odom -> base_link transform on `/tf`, as
+//! diff_drive_controller publishes it.
 //!
 //! A serial controller that cannot be opened, goes away or stops reporting is logged and retried;
 //! `/odom` pauses meanwhile (so the planner's follower stops on stale odometry) and the bridge
 //! keeps serving.
 //!
-//! Usage: `chassis_bridge [--params-file FILE]` (default `config/chassis.yaml` if present).
+//! Usage: `chassis_bridge [--params-file FILE]` (default `config/chassis.yaml` if present). The
+//! file's `chassis_bridge: ros__parameters:` block is read strictly: an unknown key, at the top
+//! or in a section, is an error naming it and the file.
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, Result};
+use chassis::kinematics::DiffDrive;
+use chassis::limits::TwistLimits;
+use chassis::watchdog::{Verdict, Watchdog};
+use chassis::{Pose, Twist2};
 use chassis_bridge::chassis::{Chassis, ChassisError, Odometry2, SimChassis};
-use chassis_bridge::kinematics::DiffDrive;
-use chassis_bridge::limits::TwistLimits;
 use chassis_bridge::serial::{SerialChassis, SerialConfig};
-use chassis_bridge::sim::Pose;
-use chassis_bridge::watchdog::{Verdict, Watchdog};
-use chassis_bridge::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::geometry_msgs::{
     Point, Pose as PoseMsg, PoseWithCovariance, Transform, TransformStamped, Twist, TwistStamped,
@@ -44,7 +46,9 @@ enum Backend {
     Serial,
 }
 
-#[derive(Clone, Debug, Deserialize)]
+/// The `chassis_bridge: ros__parameters:` block. Unknown keys are refused here and in every
+/// section (limits, drive, serial, serial.encoders), so a typo is an error, not a default.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 struct Params {
     backend: Backend,
@@ -85,9 +89,7 @@ impl Default for Params {
 fn load() -> Result<Params> {
     let (path, explicit) = ros_edge::params_file("config/chassis.yaml");
     let params: Params = if explicit || path.exists() {
-        let block = planner_io::load_ros_parameters(&path, "chassis_bridge")?;
-        serde_yaml::from_value(block)
-            .with_context(|| format!("{}: chassis_bridge parameters", path.display()))?
+        ros_edge::parameters::read(&path, "chassis_bridge")?
     } else {
         Params::default()
     };
@@ -479,6 +481,33 @@ fn tf_msg(odom: &Odometry) -> TFMessage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::{Path, PathBuf};
+
+    #[test]
+    fn the_bundled_config_is_the_built_in_default() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/chassis.yaml");
+        let p: Params = ros_edge::parameters::read(&path, "chassis_bridge").unwrap();
+        assert_eq!(p, Params::default());
+    }
+
+    #[test]
+    fn a_typo_at_the_top_of_the_block_is_refused_naming_the_key_and_the_file() {
+        let path: PathBuf =
+            std::env::temp_dir().join(format!("chassis-bridge-typo-{}.yaml", std::process::id()));
+        std::fs::write(
+            &path,
+            "chassis_bridge:\n  ros__parameters:\n    backnd: serial\n",
+        )
+        .unwrap();
+        let result = ros_edge::parameters::read::<Params>(&path, "chassis_bridge");
+        let _ = std::fs::remove_file(&path);
+        let message = result.unwrap_err().to_string();
+        assert!(
+            message.starts_with(&path.display().to_string())
+                && message.contains("unknown field `backnd`"),
+            "{message}"
+        );
+    }
 
     #[test]
     fn the_transform_is_the_odometry_pose() {

@@ -1,16 +1,18 @@
 //! The serial back end: a motor controller on a serial line (USB CDC or a UART), spoken to in the
-//! line protocol of protocol.rs. Each control period sends one `$CMD` with the wheel speeds and
-//! reads whatever the board sent since: its `$ENC` lines become odometry (odometry.rs).
+//! line protocol of the chassis crate's protocol.rs. Each control period sends one `$CMD` with the
+//! wheel speeds and reads whatever the board sent since: its `$ENC` lines become odometry (the
+//! chassis crate's odometry.rs).
 //!
-//! This is the one module of the crate that does I/O. It never blocks the control loop: reads
-//! take only the bytes already waiting, and a write that cannot go out within the port timeout
-//! is an error (a wedged or unplugged device), which the bridge answers by reopening the device.
+//! This is the one module of the bridge that does device I/O. It never blocks the control loop:
+//! reads take only the bytes already waiting, and a write that cannot go out within the port
+//! timeout is an error (a wedged or unplugged device), which the bridge answers by reopening the
+//! device.
 
 use crate::chassis::{Chassis, ChassisError, Odometry2};
-use crate::kinematics::DiffDrive;
-use crate::odometry::{EncoderConfig, EncoderOdometry};
-use crate::protocol::{self, Feedback, LineBuffer};
-use crate::sim::Pose;
+use chassis::kinematics::DiffDrive;
+use chassis::odometry::{EncoderConfig, EncoderOdometry};
+use chassis::protocol::{self, Feedback, LineBuffer};
+use chassis::Pose;
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
 use std::time::Duration;

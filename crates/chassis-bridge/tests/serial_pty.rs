@@ -1,14 +1,13 @@
 //! The serial back end against a fake motor controller on a pseudo-terminal: the real device code
 //! path (open by name, raw mode, non-blocking reads), no hardware. The fake board is written here
-//! from the protocol's description, independently of `protocol.rs`, so a symmetric mistake in the
-//! bridge's encoder and decoder cannot pass unnoticed.
+//! from the protocol's description, independently of the chassis crate's `protocol.rs`, so a
+//! symmetric mistake in the bridge's encoder and decoder cannot pass unnoticed.
 
+use chassis::kinematics::DiffDrive;
+use chassis::odometry::EncoderConfig;
+use chassis::{Pose, Twist2};
 use chassis_bridge::chassis::{Chassis, ChassisError};
-use chassis_bridge::kinematics::DiffDrive;
-use chassis_bridge::odometry::EncoderConfig;
 use chassis_bridge::serial::{SerialChassis, SerialConfig};
-use chassis_bridge::sim::Pose;
-use chassis_bridge::Twist2;
 use serialport::{SerialPort, TTYPort};
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -1,10 +1,10 @@
 //! The path follower's loop: the node drives the plan it published, from `/odom`, through
-//! chassis-bridge's regulated pure pursuit, within the twist and acceleration limits.
+//! the chassis library's regulated pure pursuit, within the twist and acceleration limits.
 
 use crate::outputs::Outputs;
 use crate::state::Shared;
-use chassis_bridge::follower::Status as FollowStatus;
-use chassis_bridge::Twist2;
+use chassis::follower::Status as FollowStatus;
+use chassis::Twist2;
 use log::{info, warn};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -47,7 +47,7 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                 (Some(f), Some(p)) => {
                     stale_reported = false;
                     let (cmd, status) = f.command(
-                        &chassis_bridge::sim::Pose {
+                        &chassis::Pose {
                             x: p.x,
                             y: p.y,
                             yaw: p.yaw,

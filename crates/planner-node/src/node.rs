@@ -31,7 +31,7 @@ use crate::params::{validate_parameter, NodeParams};
 use crate::planning::{self, install_map};
 use crate::state::{Live, Shared};
 use anyhow::Result;
-use chassis_bridge::Twist2;
+use chassis::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};

@@ -4,7 +4,7 @@
 use crate::convert::{self, Failure};
 use crate::planning::Outcome;
 use crate::state::Shared;
-use chassis_bridge::Twist2;
+use chassis::Twist2;
 use log::{info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{Twist, TwistStamped, Vector3};

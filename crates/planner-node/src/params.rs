@@ -3,8 +3,8 @@
 //! parameter file (Nav2's layout), `config/planner.yaml` by default.
 
 use anyhow::{Context, Result};
-use chassis_bridge::follower::FollowerParams;
-use chassis_bridge::limits::TwistLimits;
+use chassis::follower::FollowerParams;
+use chassis::limits::TwistLimits;
 use planner_core::config::PlannerConfig;
 use planner_core::registry;
 use ros2_client::ParameterValue;

@@ -6,7 +6,7 @@ use crate::convert::{self, Failure};
 use crate::inputs::GoalSlot;
 use crate::outputs::Outputs;
 use crate::state::{MapState, Shared};
-use chassis_bridge::follower::Follower;
+use chassis::follower::Follower;
 use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::geometry::{Point2, Pose2};

@@ -4,7 +4,7 @@
 
 use crate::localization::Localization;
 use crate::params::NodeParams;
-use chassis_bridge::follower::Follower;
+use chassis::follower::Follower;
 use planner_core::geometry::Pose2;
 use planner_core::grid::GridMap;
 use planner_core::inflation::PlanningGrid;

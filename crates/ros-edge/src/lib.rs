@@ -1,10 +1,11 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
 //! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header
 //! stamps from the system clock, SIGINT and SIGTERM, the reliable QoS profile set explicitly on
-//! every topic (ros2-client's defaults differ from rclpy's), and logging to the terminal and
-//! `/rosout`.
+//! every topic (ros2-client's defaults differ from rclpy's), logging to the terminal and
+//! `/rosout`, and reading a node's block of a ROS 2 parameter file (`parameters`).
 
 pub mod logging;
+pub mod parameters;
 
 use anyhow::{Context as _, Result};
 use patrol_msgs::builtin_interfaces::Time;

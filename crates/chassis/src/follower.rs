@@ -10,8 +10,7 @@
 //! last point the robot turns in place to the goal's heading, then reports `Arrived` and stops.
 
 use crate::limits::TwistLimits;
-use crate::sim::Pose;
-use crate::Twist2;
+use crate::{Pose, Twist2};
 use serde::{Deserialize, Serialize};
 
 /// Follower parameters (m, rad).

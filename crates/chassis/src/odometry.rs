@@ -9,8 +9,8 @@
 //! then starts again from that reading instead of jumping the robot across the map.
 
 use crate::kinematics::DiffDrive;
-use crate::sim::{Pose, Unicycle};
-use crate::Twist2;
+use crate::sim::Unicycle;
+use crate::{Pose, Twist2};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 use thiserror::Error;

@@ -2,15 +2,7 @@
 //! when turning), so the pose it reports as odometry is the pose a perfect differential drive
 //! would reach with the same wheel speeds.
 
-use crate::Twist2;
-
-/// Pose in the odom frame: x, y (m), yaw (rad).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Pose {
-    pub x: f64,
-    pub y: f64,
-    pub yaw: f64,
-}
+use crate::{Pose, Twist2};
 
 /// The simulated chassis.
 #[derive(Clone, Debug, Default, PartialEq)]
