@@ -5,7 +5,7 @@
 use crate::run::{load_config, Workspace};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use planner_core::registry;
+use planner_core::PlannerName;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -16,9 +16,9 @@ pub struct BenchArgs {
     /// `*.scen.yaml` files (e.g. ../shared/maps/bench/datacenter_100.scen.yaml).
     #[arg(long, num_args = 1.., required = true)]
     pub scenarios: Vec<PathBuf>,
-    /// Comma-separated planner names.
+    /// Comma-separated planner names (`patrol-plan planners` lists them).
     #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
-    pub planners: Vec<String>,
+    pub planners: Vec<PlannerName>,
     /// Runs per planner and scenario (seeds 0..runs-1).
     #[arg(long, default_value_t = 5)]
     pub runs: u64,
@@ -40,7 +40,7 @@ pub struct BenchArgs {
 pub struct Row {
     pub map: String,
     pub scenario: String,
-    pub planner: String,
+    pub planner: PlannerName,
     pub runs: u64,
     pub successes: u64,
     /// Successful runs whose path passed the collision check.
@@ -86,9 +86,6 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 }
 
 pub fn run(args: &BenchArgs) -> Result<()> {
-    for p in &args.planners {
-        registry::check_name(p)?;
-    }
     let config = load_config(args.config.as_deref())?;
     let mut jobs = Vec::new();
     for path in &args.scenarios {
@@ -120,14 +117,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let query = ws.query(sc.start, sc.goal);
             bar.set_message(format!("{map_name}/{} reference", sc.name));
             let reference = ws
-                .run("any_angle", &query, 0)?
+                .run(PlannerName::AnyAngle, &query, 0)?
                 .0
                 .ok()
                 .map(|p| p.metrics.length_m);
             // A*'s median time on this query, for the time ratios.
             let mut astar_times = Vec::new();
             for seed in 0..args.runs {
-                astar_times.push(ws.run("astar", &query, seed)?.1.as_secs_f64() * 1e3);
+                astar_times.push(ws.run(PlannerName::Astar, &query, seed)?.1.as_secs_f64() * 1e3);
                 bar.inc(1);
             }
             let astar_ms = median(astar_times);
@@ -138,7 +135,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     (vec![], vec![], vec![], vec![], vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
                 for seed in 0..args.runs {
-                    let (result, t) = ws.run(planner, &query, seed)?;
+                    let (result, t) = ws.run(*planner, &query, seed)?;
                     times.push(t.as_secs_f64() * 1e3);
                     match result {
                         Ok(plan) => {
@@ -163,7 +160,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 rows.push(Row {
                     map: map_name.clone(),
                     scenario: sc.name.clone(),
-                    planner: planner.clone(),
+                    planner: *planner,
                     runs: args.runs,
                     successes: ok,
                     collision_free: free,
@@ -213,7 +210,11 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
         s,
         "Produced by `patrol-plan bench --scenarios {} --planners {} --runs {}`{}.\n",
         files.join(" "),
-        args.planners.join(","),
+        args.planners
+            .iter()
+            .map(|p| p.as_str())
+            .collect::<Vec<_>>()
+            .join(","),
         args.runs,
         if args.only.is_empty() {
             String::new()

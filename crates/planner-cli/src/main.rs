@@ -56,14 +56,14 @@ struct Request {
 #[derive(Subcommand)]
 enum Command {
     /// Plan one path and print it as one JSON object (planner, seed, length_m, turning_rad, turns,
-    /// min_clearance_m, collision_free, time_ms, reference_length_m, waypoints).
+    /// min_clearance_m, collision_free, time_ms, reference_length_m, termination, waypoints, ...).
     Plan {
         #[command(flatten)]
         request: Request,
         /// Planner name (default: the config's `planner`, else mocmcso). `patrol-plan planners`
         /// lists them.
         #[arg(long)]
-        planner: Option<String>,
+        planner: Option<planner_core::PlannerName>,
         /// RNG seed (default: the config's `seed`, else 0). The node logs the seed of every plan so
         /// it can be replayed here.
         #[arg(long)]
@@ -91,7 +91,7 @@ enum Command {
         request: Request,
         /// Comma-separated planner names, each drawn in its own colour.
         #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
-        planners: Vec<String>,
+        planners: Vec<planner_core::PlannerName>,
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Output SVG file.
@@ -146,7 +146,7 @@ fn run(cli: Cli) -> Result<()> {
             r.common.config.as_deref(),
         ),
         Command::Planners => {
-            for name in planner_core::registry::PLANNER_NAMES {
+            for name in planner_core::PlannerName::ALL {
                 println!("{name}");
             }
             Ok(())

@@ -3,9 +3,9 @@
 //! so the benchmark is also a correctness check.
 
 use anyhow::{bail, Result};
-use planner_core::astar::{astar_cells, cell_path_length};
-use planner_core::inflation::{InflationConfig, PlanningGrid};
+use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
 use planner_core::planner::{PlanContext, PlannerRng};
+use planner_core::search::astar::{astar_cells, cell_path_length};
 use rand::SeedableRng;
 use std::path::Path;
 

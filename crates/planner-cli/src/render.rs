@@ -7,8 +7,8 @@
 use base64::Engine;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Cell, Point2};
-use planner_core::grid::{GridMap, UNKNOWN};
-use planner_core::inflation::PlanningGrid;
+use planner_core::grid::inflation::PlanningGrid;
+use planner_core::grid::map::{GridMap, UNKNOWN};
 use std::fmt::Write;
 
 const PALETTE: &[&str] = &[

@@ -4,13 +4,14 @@
 use crate::render::{Drawing, Layer};
 use anyhow::{Context, Result};
 use planner_core::config::PlannerConfig;
+use planner_core::driver::Termination;
 use planner_core::geometry::Point2;
+use planner_core::grid::inflation::PlanningGrid;
 use planner_core::grid::GridMap;
-use planner_core::inflation::PlanningGrid;
 use planner_core::planner::{
     Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query, SolveOptions,
 };
-use planner_core::registry;
+use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use serde::Serialize;
 use std::path::Path;
@@ -54,11 +55,14 @@ impl Workspace {
     /// wall time of the whole request (validation, planning, post-processing, metrics).
     pub fn run(
         &self,
-        planner: &str,
+        planner: PlannerName,
         query: &Query,
         seed: u64,
     ) -> Result<(Result<Plan, PlanError>, Duration)> {
-        let p = registry::build(planner, &self.config)?;
+        let p = registry::build(&PlannerConfig {
+            planner,
+            ..self.config.clone()
+        })?;
         let mut rng = PlannerRng::seed_from_u64(seed);
         let t0 = Instant::now();
         let budget = self.config.max_planning_time;
@@ -68,10 +72,7 @@ impl Workspace {
                 .filter(|d| Instant::now() >= *d)
                 .map(|_| Interrupt::Deadline)
         };
-        let mut ctx = PlanContext {
-            rng: &mut rng,
-            interrupt: &interrupt,
-        };
+        let mut ctx = PlanContext::new(&mut rng, &interrupt);
         let options = SolveOptions {
             smoothing: self.config.smoothing,
         };
@@ -82,7 +83,7 @@ impl Workspace {
 
 #[derive(Serialize)]
 struct PlanOutput<'a> {
-    planner: &'a str,
+    planner: PlannerName,
     seed: u64,
     length_m: f64,
     turning_rad: f64,
@@ -95,6 +96,8 @@ struct PlanOutput<'a> {
     iterations: u64,
     evaluations: u64,
     cut_short: bool,
+    /// Why the run stopped: completed, max_iterations, converged, deadline or cancelled.
+    termination: Option<Termination>,
     best_iteration: Option<u64>,
     counters: &'a std::collections::BTreeMap<String, f64>,
     notes: &'a [String],
@@ -109,20 +112,20 @@ pub fn plan_command(
     map_path: &Path,
     start: [f64; 2],
     goal: [f64; 2],
-    planner: Option<String>,
+    planner: Option<PlannerName>,
     seed: Option<u64>,
     svg: Option<&Path>,
     config: Option<&Path>,
 ) -> Result<()> {
     let config = load_config(config)?;
-    let planner = planner.unwrap_or_else(|| config.planner.clone());
+    let planner = planner.unwrap_or(config.planner);
     let seed = seed.or(config.seed).unwrap_or(0);
     let ws = Workspace::load(map_path, config)?;
     let query = ws.query(start, goal);
-    let (result, elapsed) = ws.run(&planner, &query, seed)?;
+    let (result, elapsed) = ws.run(planner, &query, seed)?;
     let plan =
         result.with_context(|| format!("{planner} could not plan from {start:?} to {goal:?}"))?;
-    let reference = ws.run("any_angle", &query, seed)?.0.ok();
+    let reference = ws.run(PlannerName::AnyAngle, &query, seed)?.0.ok();
     let out = PlanOutput {
         planner: plan.planner,
         seed,
@@ -137,6 +140,7 @@ pub fn plan_command(
         iterations: plan.stats.iterations,
         evaluations: plan.stats.evaluations,
         cut_short: plan.stats.cut_short,
+        termination: plan.stats.termination,
         best_iteration: plan.stats.best_iteration,
         counters: &plan.stats.counters,
         notes: &plan.stats.notes,
@@ -154,7 +158,7 @@ pub fn plan_command(
         if let Some(r) = &reference {
             drawing.add(Layer::path("any_angle (reference)", &r.waypoints));
         }
-        drawing.add(Layer::path(plan.planner, &plan.waypoints));
+        drawing.add(Layer::path(plan.planner.as_str(), &plan.waypoints));
         drawing.add(Layer::endpoints(query.start, plan.goal));
         if !plan.pareto.is_empty() {
             drawing.add(Layer::Pareto {
@@ -176,7 +180,7 @@ pub fn render_command(
     map_path: &Path,
     start: [f64; 2],
     goal: [f64; 2],
-    planners: &[String],
+    planners: &[PlannerName],
     seed: u64,
     out: &Path,
     config: Option<&Path>,
@@ -185,7 +189,7 @@ pub fn render_command(
     let query = ws.query(start, goal);
     let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
     for name in planners {
-        match ws.run(name, &query, seed)?.0 {
+        match ws.run(*name, &query, seed)?.0 {
             Ok(plan) => {
                 eprintln!(
                     "{name}: {:.3} m, {:.3} rad, {} turns, collision-free: {}",
@@ -194,7 +198,7 @@ pub fn render_command(
                     plan.metrics.turns,
                     plan.metrics.collision_free
                 );
-                drawing.add(Layer::path(name, &plan.waypoints));
+                drawing.add(Layer::path(name.as_str(), &plan.waypoints));
             }
             Err(e) => eprintln!("{name}: {e}"),
         }

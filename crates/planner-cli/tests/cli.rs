@@ -234,3 +234,59 @@ fn bench_writes_rows_and_markdown() {
         "{table}"
     );
 }
+
+/// A misspelt top-level key in the parameter file is an error naming the key and the file (the
+/// node refuses the same file with the same message), not a silent run of the defaults.
+#[test]
+fn a_top_level_typo_in_the_config_is_an_error() {
+    let dir = std::env::temp_dir().join(format!("patrol-plan-typo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("typo.yaml");
+    std::fs::write(
+        &file,
+        "patrol_planner:\n  ros__parameters:\n    max_planing_time: 1.0\n",
+    )
+    .unwrap();
+    let expected = planner_io::parameters::load_parameter_file(&file)
+        .unwrap_err()
+        .to_string();
+    let map = shared("bench/datacenter_100.yaml");
+    let (ok, _, stderr) = patrol_plan(&[
+        "plan",
+        "--map",
+        map.to_str().unwrap(),
+        "--start",
+        "0.1,0.1",
+        "--goal",
+        "5.1,5.1",
+        "--config",
+        file.to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(expected.contains("`max_planing_time`"), "{expected}");
+    assert!(stderr.contains(&expected), "{stderr}");
+}
+
+/// `plan` says why the run stopped.
+#[test]
+fn plan_prints_the_termination() {
+    let map = shared("bench/datacenter_100.yaml");
+    for (planner, termination) in [("astar", "completed"), ("mocmcso", "max_iterations")] {
+        let (ok, stdout, stderr) = patrol_plan(&[
+            "plan",
+            "--map",
+            map.to_str().unwrap(),
+            "--start",
+            "0.1,0.1",
+            "--goal",
+            "5.1,5.1",
+            "--planner",
+            planner,
+        ]);
+        assert!(ok, "{stderr}");
+        assert!(
+            stdout.contains(&format!("\"termination\":\"{termination}\"")),
+            "{planner}: {stdout}"
+        );
+    }
+}

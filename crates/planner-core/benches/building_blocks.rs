@@ -10,13 +10,13 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use ordered_float::OrderedFloat;
-use planner_core::any_angle::AnyAngle;
-use planner_core::astar::{astar_cells, cell_path_length, octile, successors};
 use planner_core::geometry::{Cell, Point2};
+use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
+use planner_core::grid::raycast::path_is_free;
 use planner_core::grid::GridMap;
-use planner_core::inflation::{InflationConfig, PlanningGrid};
 use planner_core::planner::{validate, PlanContext, Planner, PlannerRng, Query};
-use planner_core::raycast::path_is_free;
+use planner_core::search::any_angle::AnyAngle;
+use planner_core::search::astar::{astar_cells, cell_path_length, octile, successors};
 use rand::SeedableRng;
 use std::hint::black_box;
 use std::path::PathBuf;

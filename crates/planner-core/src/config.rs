@@ -2,95 +2,25 @@
 //! so the YAML file, the CLI and the node agree on one set of values.
 //!
 //! This is the planning part of the node's `patrol_planner: ros__parameters:` block (see
-//! `config/planner.yaml`); each planner family adds its own section here.
+//! `config/planner.yaml`); each planner family adds its own section here. How a value is checked
+//! lives in the leaf module [`crate::params`], which the families use without importing this
+//! aggregate back.
 
-use crate::ant_colony::ColonyParams;
+use crate::colony::ColonyParams;
+use crate::field::ApfParams;
 use crate::genetic::GaParams;
-use crate::inflation::InflationConfig;
-use crate::potential::ApfParams;
+use crate::grid::inflation::InflationConfig;
+use crate::params::{check, ParamError, Range};
+use crate::registry::PlannerName;
 use crate::swarm::SwarmParams;
 use serde::{Deserialize, Serialize};
 
-/// A parameter with a value it cannot take.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("parameter `{name}`: {reason}")]
-pub struct ParamError {
-    pub name: String,
-    pub reason: String,
-}
-
-impl ParamError {
-    pub fn new(name: impl Into<String>, reason: impl Into<String>) -> Self {
-        Self {
-            name: name.into(),
-            reason: reason.into(),
-        }
-    }
-}
-
-/// The range a numeric parameter must lie in.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Range {
-    /// Finite and >= 0.
-    NonNegative,
-    /// Finite and > 0.
-    Positive,
-    /// In 0..=1.
-    Share,
-    /// In the open interval (0, 1).
-    OpenUnit,
-    /// Finite and greater than the bound.
-    Above(f64),
-}
-
-impl Range {
-    fn holds(self, v: f64) -> bool {
-        match self {
-            Range::NonNegative => v.is_finite() && v >= 0.0,
-            Range::Positive => v.is_finite() && v > 0.0,
-            Range::Share => (0.0..=1.0).contains(&v),
-            Range::OpenUnit => v > 0.0 && v < 1.0,
-            Range::Above(b) => v.is_finite() && v > b,
-        }
-    }
-
-    fn describe(self) -> String {
-        match self {
-            Range::NonNegative => "a finite non-negative number".into(),
-            Range::Positive => "a finite positive number".into(),
-            Range::Share => "within 0..=1".into(),
-            Range::OpenUnit => "strictly between 0 and 1".into(),
-            Range::Above(b) => format!("a finite number above {b}"),
-        }
-    }
-}
-
-/// Checks every `(name, value)` against `range`; the error names the first one out of it. The
-/// one place that says what a valid number is, for every parameter section.
-pub(crate) fn check(range: Range, params: &[(&str, f64)]) -> Result<(), ParamError> {
-    match params.iter().find(|(_, v)| !range.holds(*v)) {
-        Some((name, v)) => Err(ParamError::new(
-            *name,
-            format!("{v} is not {}", range.describe()),
-        )),
-        None => Ok(()),
-    }
-}
-
-/// Checks that every `(name, count)` is at least `min`.
-pub(crate) fn check_counts(min: usize, params: &[(&str, usize)]) -> Result<(), ParamError> {
-    match params.iter().find(|(_, v)| *v < min) {
-        Some((name, v)) => Err(ParamError::new(*name, format!("{v} is less than {min}"))),
-        None => Ok(()),
-    }
-}
-
 /// Everything needed to build and run a planner.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(deny_unknown_fields, default)]
 pub struct PlannerConfig {
-    /// Planner name, one of [`crate::registry::PLANNER_NAMES`].
-    pub planner: String,
+    /// The planner that answers requests. Default mocmcso.
+    pub planner: PlannerName,
     /// RNG seed; `None` lets the caller draw one (and report it, so the plan can be replayed).
     pub seed: Option<u64>,
     /// How far (m) an occupied goal may be moved to the nearest free cell. Default 0.25.
@@ -113,8 +43,8 @@ pub struct PlannerConfig {
     pub genetic: GaParams,
 }
 
-pub fn default_planner() -> String {
-    "mocmcso".into()
+pub fn default_planner() -> PlannerName {
+    PlannerName::Mocmcso
 }
 pub fn default_tolerance() -> f64 {
     0.25
@@ -142,7 +72,6 @@ impl Default for PlannerConfig {
 
 impl PlannerConfig {
     pub fn validate(&self) -> Result<(), ParamError> {
-        crate::registry::check_name(&self.planner)?;
         check(
             Range::NonNegative,
             &[
@@ -155,5 +84,36 @@ impl PlannerConfig {
         self.swarm.validate()?;
         self.colony.validate()?;
         self.genetic.validate()
+    }
+
+    /// The potential field's parameters with R of eq. 9 (the chassis radius) resolved: the
+    /// costmap's robot radius unless `apf.chassis_radius` is set, so the robot has one radius.
+    pub fn field(&self) -> ApfParams {
+        ApfParams {
+            chassis_radius: Some(self.apf.chassis_radius.unwrap_or(self.costmap.robot_radius)),
+            ..self.apf.clone()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_field_takes_the_robot_radius_unless_its_own_is_set() {
+        let mut config = PlannerConfig::default();
+        config.costmap.robot_radius = 0.4;
+        assert_eq!(config.field().chassis_radius, Some(0.4));
+        config.apf.chassis_radius = Some(0.3);
+        assert_eq!(config.field().chassis_radius, Some(0.3));
+    }
+
+    #[test]
+    fn a_misspelt_key_is_an_error_naming_it() {
+        let err = serde_yaml::from_str::<PlannerConfig>("planer: astar\n").unwrap_err();
+        assert!(err.to_string().contains("planer"), "{err}");
+        let ok: PlannerConfig = serde_yaml::from_str("planner: astar\n").unwrap();
+        assert_eq!(ok.planner, PlannerName::Astar);
     }
 }

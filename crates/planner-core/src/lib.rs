@@ -1,39 +1,48 @@
-//! planner-core: the pure heart of patrol-planner.
+//! planner-core: the pure heart of patrol-planner. No ROS, no I/O, no async, no clock: everything
+//! here can be tested and benchmarked alone.
 //!
-//! Grid maps with nav_msgs/OccupancyGrid semantics and their parsers, obstacle inflation, the one
-//! collision rule (supercover line of sight), path metrics, the [`Planner`] trait with its
-//! request/result/error types, and the planners themselves. No ROS, no I/O, no async, no clock:
-//! everything here can be tested and benchmarked alone.
+//! How it is laid out, from the map up:
+//! - [`geometry`]: points, cells, poses;
+//! - [`grid`]: the map with OccupancyGrid semantics and its parsers, inflation into the planning
+//!   grid, the one move rule, the one collision rule, path metrics, the delete operation;
+//! - [`planner`]: the one [`Planner`] trait every planner implements, the request, result and
+//!   error types, and [`solve`], which validates, runs, verifies and measures;
+//! - [`driver`]: the one loop of every population planner and the typed [`driver::Termination`];
+//! - [`seed`]: the potential-field-else-A* path the field-guided planners start from;
+//! - the planner families: [`search`] (A*, any-angle), [`field`] (the potential fields), [`swarm`]
+//!   (the patrol car paper's cat and particle swarms), [`colony`] (the substation paper's ant
+//!   colonies), [`genetic`] (the genetic algorithm paper's IMGA and a plain GA);
+//! - [`registry`]: the one list of planner names, and the builder that maps a name to a planner;
+//! - [`config`]: every parameter section in one struct; [`params`]: how each is checked.
 //!
 //! ```
-//! use planner_core::{grid::{GridMap, MapInfo}, geometry::{Point2, Pose2}, inflation::*, planner::*, registry};
+//! use planner_core::{grid::{GridMap, InflationConfig, MapInfo, PlanningGrid}, geometry::{Point2, Pose2}, planner::*, registry};
 //! let info = MapInfo { width: 20, height: 10, resolution: 0.1, origin: Pose2::default() };
 //! let map = GridMap::new(info, vec![0; 200]).unwrap();
 //! let grid = PlanningGrid::new(&map, &InflationConfig::default()).unwrap();
-//! let planner = registry::build("astar", &Default::default()).unwrap();
+//! let config = planner_core::config::PlannerConfig { planner: registry::PlannerName::Astar, ..Default::default() };
+//! let planner = registry::build(&config).unwrap();
 //! let query = Query { start: Point2::new(0.15, 0.15), goal: Point2::new(1.85, 0.85), tolerance: 0.0 };
 //! let mut rng = <PlannerRng as rand::SeedableRng>::seed_from_u64(7);
 //! let plan = solve(planner.as_ref(), &grid, &query, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut rng)).unwrap();
 //! assert!(plan.metrics.collision_free);
 //! ```
 
-pub mod ant_colony;
-pub mod any_angle;
-pub mod astar;
+pub mod colony;
 pub mod config;
+pub mod driver;
+pub mod field;
 pub mod genetic;
 pub mod geometry;
 pub mod grid;
-pub mod inflation;
-pub mod maps;
-pub mod metrics;
+pub mod params;
 pub mod planner;
-pub mod potential;
-pub mod raycast;
 pub mod registry;
-pub mod smoothing;
+pub mod search;
+pub mod seed;
 pub mod swarm;
 #[cfg(test)]
 pub(crate) mod test_support;
 
 pub use planner::{solve, Plan, PlanContext, PlanError, Planner, PlannerRng, Query, SolveOptions};
+pub use registry::PlannerName;

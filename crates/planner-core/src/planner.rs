@@ -8,11 +8,13 @@
 //! collision rule of [`crate::raycast`], measures it and converts it to world metres. So no
 //! planner repeats validation, and no planner can hand back a colliding path.
 
+use crate::driver::{Iteration, Termination};
 use crate::geometry::{Cell, Point2};
-use crate::inflation::PlanningGrid;
-use crate::metrics::{drop_collinear, measure, PathMetrics};
-use crate::raycast::{line_of_sight, path_is_free};
-use crate::smoothing::delete_redundant;
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::metrics::{drop_collinear, measure, PathMetrics};
+use crate::grid::raycast::{line_of_sight, path_is_free};
+use crate::grid::smoothing::delete_redundant;
+use crate::registry::PlannerName;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -29,21 +31,30 @@ pub enum Interrupt {
     Cancelled,
 }
 
-/// What a planner may use besides the problem: randomness and a way to learn it should stop.
+/// What a planner may use besides the problem: randomness, a way to learn it should stop, and
+/// an optional observer of the population loop.
 pub struct PlanContext<'a> {
     pub rng: &'a mut PlannerRng,
     /// Polled by planners (every iteration, or every few thousand expansions); `Some` means stop.
     /// Anytime planners then return their best path so far with `stats.cut_short` set.
     pub interrupt: &'a dyn Fn() -> Option<Interrupt>,
+    /// Called after every iteration of a population planner (convergence plots, progress bars).
+    pub observer: Option<&'a mut dyn FnMut(&Iteration)>,
 }
 
-impl PlanContext<'_> {
-    /// The context of a run with no deadline.
-    pub fn never_interrupted(rng: &mut PlannerRng) -> PlanContext<'_> {
-        PlanContext {
+impl<'a> PlanContext<'a> {
+    /// A context with no observer.
+    pub fn new(rng: &'a mut PlannerRng, interrupt: &'a dyn Fn() -> Option<Interrupt>) -> Self {
+        Self {
             rng,
-            interrupt: &|| None,
+            interrupt,
+            observer: None,
         }
+    }
+
+    /// The context of a run with no deadline.
+    pub fn never_interrupted(rng: &'a mut PlannerRng) -> Self {
+        Self::new(rng, &|| None)
     }
 
     pub fn check(&self) -> Result<(), PlanError> {
@@ -90,6 +101,8 @@ pub struct PlanStats {
     pub convergence: Vec<f64>,
     /// The interrupt callback stopped the run and the best path so far came back.
     pub cut_short: bool,
+    /// Why the run stopped ([`Termination::Completed`] for the methods that run to their end).
+    pub termination: Option<Termination>,
     /// Planner-specific counters (e.g. `dropped_ants`), by name.
     pub counters: BTreeMap<String, f64>,
     /// Planner-specific remarks (e.g. which encoding was used, a fallback that happened).
@@ -109,7 +122,7 @@ pub struct RawPlan {
 /// The answer to a request: a verified, measured path in world metres.
 #[derive(Clone, Debug, Serialize)]
 pub struct Plan {
-    pub planner: &'static str,
+    pub planner: PlannerName,
     pub waypoints: Vec<Point2>,
     pub metrics: PathMetrics,
     pub stats: PlanStats,
@@ -128,9 +141,9 @@ pub struct Query {
     pub tolerance: f64,
 }
 
-/// How a request can fail: Nav2's planner failure set.
+/// How a request can fail: Nav2's planner failure set. Exhaustive on purpose: the node maps
+/// every variant to a result code, and a new one must be mapped there, not fall into a default.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
 pub enum PlanError {
     #[error("start ({}, {}) is outside the map", .0.x, .0.y)]
     StartOutsideMap(Point2),
@@ -153,7 +166,7 @@ pub enum PlanError {
 /// The one trait every planner implements. Object safe: planners are chosen by name at run time.
 pub trait Planner: Send + Sync {
     /// The name users select it by (`astar`, `mocmcso`, ...).
-    fn name(&self) -> &'static str;
+    fn name(&self) -> PlannerName;
 
     /// Whether [`solve`] applies the delete operation to this planner's path unless told
     /// otherwise. Colony and genetic planners, whose paths are cell staircases, say yes.
@@ -183,7 +196,8 @@ pub fn solve(
     ctx: &mut PlanContext<'_>,
 ) -> Result<Plan, PlanError> {
     let problem = validate(grid, query)?;
-    let raw = planner.plan(&problem, ctx)?;
+    let mut raw = planner.plan(&problem, ctx)?;
+    raw.stats.termination.get_or_insert(Termination::Completed);
     let smoothing = options
         .smoothing
         .unwrap_or_else(|| planner.smooth_by_default());

@@ -1,88 +1,176 @@
-//! The name table: the one place that maps planner names to implementations. The node and the
-//! CLI select planners through it, so a new planner needs one line here and nothing else.
+//! The one list of planners: [`PlannerName`], which the CLI, the node, `patrol-plan planners` and
+//! the parameter files all use, and [`build`], the one place that maps a name to an
+//! implementation. A new planner is one variant here, one arm in [`build`], and its module.
 
-use crate::ant_colony::{ColonyPlanner, ColonyVariant};
-use crate::any_angle::AnyAngle;
-use crate::astar::AStar;
-use crate::config::{ParamError, PlannerConfig};
+use crate::colony::{ColonyPlanner, ColonyVariant};
+use crate::config::PlannerConfig;
+use crate::field::ApfPlanner;
 use crate::genetic::{GaPlanner, GaVariant};
+use crate::params::ParamError;
 use crate::planner::Planner;
-use crate::potential::ApfPlanner;
+use crate::search::any_angle::AnyAngle;
+use crate::search::astar::AStar;
 use crate::swarm::{SwarmPlanner, Variant};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
 
-/// Every selectable planner, in the order tables list them.
-pub const PLANNER_NAMES: &[&str] = &[
-    "astar",
-    "any_angle",
-    "apf",
-    "mocmcso",
-    "mocso",
-    "mopso",
-    "cmcso",
-    "cso",
-    "pso",
-    "eapf",
-    "eapf_iaco",
-    "aco",
-    "aco_apf",
-    "imga",
-    "ga",
-];
+/// Every selectable planner. Serialised (parameter files, JSON, `/diagnostics`) by the name users
+/// select it by; an unknown name is refused with the list of valid ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "&'static str")]
+pub enum PlannerName {
+    /// 8-connected A*: the patrol car paper's baseline.
+    Astar,
+    /// The exact any-angle shortest path: every table's reference.
+    AnyAngle,
+    /// The patrol car paper's potential field alone (eq. 1-9).
+    Apf,
+    /// The patrol car paper's planner: multi-objective Cauchy-mutation cat swarm.
+    Mocmcso,
+    Mocso,
+    Mopso,
+    Cmcso,
+    Cso,
+    Pso,
+    /// The substation paper's enhanced potential field alone.
+    Eapf,
+    /// The substation paper's planner: EAPF-guided improved ant colony.
+    EapfIaco,
+    Aco,
+    AcoApf,
+    /// The genetic algorithm paper's improved multi-objective GA.
+    Imga,
+    Ga,
+}
 
-/// Checks a planner name, with the list of valid ones in the error.
-pub fn check_name(name: &str) -> Result<(), ParamError> {
-    if PLANNER_NAMES.contains(&name) {
-        Ok(())
-    } else {
-        Err(ParamError::new(
-            "planner",
-            format!(
-                "unknown planner `{name}`; choose one of {}",
-                PLANNER_NAMES.join(", ")
-            ),
-        ))
+impl PlannerName {
+    /// Every planner, in the order tables list them.
+    pub const ALL: [PlannerName; 15] = [
+        PlannerName::Astar,
+        PlannerName::AnyAngle,
+        PlannerName::Apf,
+        PlannerName::Mocmcso,
+        PlannerName::Mocso,
+        PlannerName::Mopso,
+        PlannerName::Cmcso,
+        PlannerName::Cso,
+        PlannerName::Pso,
+        PlannerName::Eapf,
+        PlannerName::EapfIaco,
+        PlannerName::Aco,
+        PlannerName::AcoApf,
+        PlannerName::Imga,
+        PlannerName::Ga,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlannerName::Astar => "astar",
+            PlannerName::AnyAngle => "any_angle",
+            PlannerName::Apf => "apf",
+            PlannerName::Mocmcso => "mocmcso",
+            PlannerName::Mocso => "mocso",
+            PlannerName::Mopso => "mopso",
+            PlannerName::Cmcso => "cmcso",
+            PlannerName::Cso => "cso",
+            PlannerName::Pso => "pso",
+            PlannerName::Eapf => "eapf",
+            PlannerName::EapfIaco => "eapf_iaco",
+            PlannerName::Aco => "aco",
+            PlannerName::AcoApf => "aco_apf",
+            PlannerName::Imga => "imga",
+            PlannerName::Ga => "ga",
+        }
+    }
+
+    /// The valid names, comma-separated, for error messages and help texts.
+    pub fn list() -> String {
+        Self::ALL.map(Self::as_str).join(", ")
     }
 }
 
-/// Builds the named planner with the parameters of `config`.
-pub fn build(name: &str, config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
-    config.costmap.validate()?;
-    config.apf.validate()?;
-    config.swarm.validate()?;
-    config.colony.validate()?;
-    config.genetic.validate()?;
-    if let Some(&variant) = GaVariant::ALL.iter().find(|v| v.name() == name) {
-        return Ok(Box::new(GaPlanner {
-            variant,
-            params: config.genetic.clone(),
-        }));
+impl fmt::Display for PlannerName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
     }
-    if let Some(&variant) = ColonyVariant::ALL.iter().find(|v| v.name() == name) {
-        return Ok(Box::new(ColonyPlanner {
-            variant,
-            params: config.colony.clone(),
-            apf: config.apf.clone(),
-        }));
+}
+
+impl From<PlannerName> for &'static str {
+    fn from(name: PlannerName) -> Self {
+        name.as_str()
     }
-    if name == "eapf" {
-        return Ok(Box::new(ApfPlanner::eapf(&config.apf)));
+}
+
+impl TryFrom<String> for PlannerName {
+    type Error = ParamError;
+
+    fn try_from(name: String) -> Result<Self, ParamError> {
+        name.parse()
     }
-    if let Some(&variant) = Variant::ALL.iter().find(|v| v.name() == name) {
-        return Ok(Box::new(SwarmPlanner {
+}
+
+impl FromStr for PlannerName {
+    type Err = ParamError;
+
+    /// A planner by name; the error lists the valid ones.
+    fn from_str(name: &str) -> Result<Self, ParamError> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.as_str() == name)
+            .ok_or_else(|| {
+                ParamError::new(
+                    "planner",
+                    format!("unknown planner `{name}`; choose one of {}", Self::list()),
+                )
+            })
+    }
+}
+
+/// Builds `config.planner` with the parameters of `config` (validated first).
+pub fn build(config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
+    config.validate()?;
+    let apf = config.field();
+    let swarm = |variant| -> Box<dyn Planner> {
+        Box::new(SwarmPlanner {
             variant,
             params: config.swarm.clone(),
-            apf: config.apf.clone(),
-        }));
-    }
-    match name {
-        "astar" => Ok(Box::new(AStar)),
-        "any_angle" => Ok(Box::new(AnyAngle)),
-        "apf" => Ok(Box::new(ApfPlanner {
-            params: config.apf.clone(),
+            apf: apf.clone(),
+        })
+    };
+    let colony = |variant| -> Box<dyn Planner> {
+        Box::new(ColonyPlanner {
+            variant,
+            params: config.colony.clone(),
+            apf: apf.clone(),
+        })
+    };
+    let genetic = |variant| -> Box<dyn Planner> {
+        Box::new(GaPlanner {
+            variant,
+            params: config.genetic.clone(),
+        })
+    };
+    Ok(match config.planner {
+        PlannerName::Astar => Box::new(AStar),
+        PlannerName::AnyAngle => Box::new(AnyAngle),
+        PlannerName::Apf => Box::new(ApfPlanner {
+            params: apf.clone(),
             substation_field: false,
-        })),
-        other => check_name(other).map(|_| unreachable!("check_name accepted an unlisted name")),
-    }
+        }),
+        PlannerName::Mocmcso => swarm(Variant::Mocmcso),
+        PlannerName::Mocso => swarm(Variant::Mocso),
+        PlannerName::Mopso => swarm(Variant::Mopso),
+        PlannerName::Cmcso => swarm(Variant::Cmcso),
+        PlannerName::Cso => swarm(Variant::Cso),
+        PlannerName::Pso => swarm(Variant::Pso),
+        PlannerName::Eapf => Box::new(ApfPlanner::eapf(&apf)),
+        PlannerName::EapfIaco => colony(ColonyVariant::EapfIaco),
+        PlannerName::Aco => colony(ColonyVariant::Aco),
+        PlannerName::AcoApf => colony(ColonyVariant::AcoApf),
+        PlannerName::Imga => genetic(GaVariant::Imga),
+        PlannerName::Ga => genetic(GaVariant::Ga),
+    })
 }
 
 #[cfg(test)]
@@ -90,11 +178,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_listed_name_builds_and_reports_its_name() {
-        for &name in PLANNER_NAMES {
-            assert_eq!(build(name, &PlannerConfig::default()).unwrap().name(), name);
+    fn every_name_builds_reports_itself_and_round_trips() {
+        for name in PlannerName::ALL {
+            let config = PlannerConfig {
+                planner: name,
+                ..PlannerConfig::default()
+            };
+            assert_eq!(build(&config).unwrap().name(), name);
+            assert_eq!(name.as_str().parse::<PlannerName>().unwrap(), name);
+            let yaml = serde_yaml::to_string(&name).unwrap();
+            assert_eq!(yaml.trim(), name.as_str());
+            assert_eq!(serde_yaml::from_str::<PlannerName>(&yaml).unwrap(), name);
         }
-        let err = build("dijkstra", &PlannerConfig::default()).err().unwrap();
-        assert!(err.to_string().contains("astar"));
+        let err = "dijkstra".parse::<PlannerName>().unwrap_err();
+        assert!(err.to_string().contains("astar") && err.to_string().contains("dijkstra"));
     }
 }

@@ -1,8 +1,8 @@
 //! Grids for unit and property tests.
 
 use crate::geometry::{Cell, Pose2};
+use crate::grid::inflation::PlanningGrid;
 use crate::grid::MapInfo;
-use crate::inflation::PlanningGrid;
 use crate::planner::PlannerRng;
 use rand::{Rng, SeedableRng};
 

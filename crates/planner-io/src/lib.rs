@@ -1,11 +1,13 @@
 //! File loading for patrol-planner: the thin I/O edge around planner-core's parsers, shared by
 //! the CLI and the node so both read maps, scenarios and parameters the same way.
 
+pub mod parameters;
+
 use planner_core::config::PlannerConfig;
+use planner_core::grid::parsers::map_server::MapYaml;
+use planner_core::grid::parsers::movingai::{self, MovingAiMap, MovingAiScenario};
+use planner_core::grid::parsers::scenarios::ScenarioFile;
 use planner_core::grid::{GridMap, MapError};
-use planner_core::maps::map_server::MapYaml;
-use planner_core::maps::movingai::{self, MovingAiMap, MovingAiScenario};
-use planner_core::maps::scenarios::ScenarioFile;
 use std::path::{Path, PathBuf};
 
 /// Everything that can go wrong loading a file, with the path in the message.
@@ -89,17 +91,9 @@ pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::V
         })
 }
 
-/// The planning part of a parameter file: the `patrol_planner` node's parameters that
-/// [`PlannerConfig`] knows (the node's own keys, such as topics and twist limits, are left to it).
-/// The result is validated.
+/// The planning part of a parameter file, validated: the `patrol_planner` block's planning keys.
+/// The node's own keys are accepted (the CLI reads the node's file), any other key is an error
+/// naming it (see [`parameters::load_parameter_file`]).
 pub fn load_planner_config(path: &Path) -> Result<PlannerConfig, LoadError> {
-    let params = load_ros_parameters(path, "patrol_planner")?;
-    let config_err = |message: String| LoadError::Config {
-        path: path.to_owned(),
-        message,
-    };
-    let config: PlannerConfig =
-        serde_yaml::from_value(params).map_err(|e| config_err(e.to_string()))?;
-    config.validate().map_err(|e| config_err(e.to_string()))?;
-    Ok(config)
+    Ok(parameters::load_parameter_file(path)?.planning)
 }

@@ -7,10 +7,10 @@
 //! space, so each point is nudged the same way into its own cell and lengths agree to their
 //! tolerance (1e-3) plus a few NUDGE.
 
-use planner_core::any_angle::AnyAngle;
 use planner_core::geometry::Point2;
-use planner_core::inflation::{InflationConfig, PlanningGrid};
+use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
 use planner_core::planner::{validate, PlanContext, Planner, PlannerRng, Query};
+use planner_core::search::any_angle::AnyAngle;
 use rand::SeedableRng;
 use std::path::PathBuf;
 
@@ -38,7 +38,7 @@ fn arena_lengths_match_polyanya() {
         let plan = AnyAngle
             .plan(&problem, &mut PlanContext::never_interrupted(&mut rng))
             .unwrap();
-        let len = planner_core::metrics::path_length(&plan.waypoints);
+        let len = planner_core::grid::metrics::path_length(&plan.waypoints);
         checked += 1;
         if (len - expected).abs() > 1.1e-3 {
             bad.push(format!("{line}: ours {len:.6}"));

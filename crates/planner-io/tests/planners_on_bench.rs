@@ -4,9 +4,11 @@
 //! all bench maps is `patrol-plan bench` (see docs/results/).
 
 use planner_core::config::PlannerConfig;
-use planner_core::inflation::PlanningGrid;
+use planner_core::driver::Termination;
+use planner_core::grid::inflation::PlanningGrid;
+use planner_core::planner::Interrupt;
 use planner_core::planner::{solve, PlanContext, PlanError, PlannerRng, Query, SolveOptions};
-use planner_core::registry::{build, PLANNER_NAMES};
+use planner_core::registry::{build, PlannerName};
 use rand::SeedableRng;
 use std::path::PathBuf;
 
@@ -17,7 +19,7 @@ fn bench(name: &str) -> PathBuf {
 }
 
 /// The colony baselines, which may fail honestly where every ant dead-ends.
-const BASELINE_COLONIES: [&str; 2] = ["aco", "aco_apf"];
+const BASELINE_COLONIES: [PlannerName; 2] = [PlannerName::Aco, PlannerName::AcoApf];
 
 #[test]
 fn every_planner_is_collision_free_and_deterministic_on_the_bench_maps() {
@@ -36,8 +38,12 @@ fn every_planner_is_collision_free_and_deterministic_on_the_bench_maps() {
                 goal: sc.goal(),
                 tolerance: 0.0,
             };
-            for &name in PLANNER_NAMES {
-                let planner = build(name, &config).unwrap();
+            for name in PlannerName::ALL {
+                let planner = build(&PlannerConfig {
+                    planner: name,
+                    ..config.clone()
+                })
+                .unwrap();
                 let run = |seed: u64| {
                     let mut rng = PlannerRng::seed_from_u64(seed);
                     solve(
@@ -78,7 +84,8 @@ fn every_planner_is_collision_free_and_deterministic_on_the_bench_maps() {
                             assert!(!dominates, "{at}: the front holds a dominated member");
                         }
                     }
-                    if name.starts_with("mo") {
+                    assert!(plan.stats.termination.is_some(), "{at}: no termination");
+                    if name.as_str().starts_with("mo") {
                         assert!(
                             !plan.pareto.is_empty(),
                             "{at}: a Pareto planner without a front"
@@ -102,7 +109,11 @@ fn an_interrupted_swarm_returns_its_best_so_far() {
         goal: planner_core::geometry::Point2::new(19.9, 19.9),
         tolerance: 0.0,
     };
-    let planner = build("mocmcso", &config).unwrap();
+    let planner = build(&PlannerConfig {
+        planner: PlannerName::Mocmcso,
+        ..config.clone()
+    })
+    .unwrap();
     let mut rng = PlannerRng::seed_from_u64(0);
     // The deadline passes at the fifth poll: after the seed, a few iterations in.
     let polls = std::cell::Cell::new(0);
@@ -110,12 +121,13 @@ fn an_interrupted_swarm_returns_its_best_so_far() {
         polls.set(polls.get() + 1);
         (polls.get() >= 5).then_some(planner_core::planner::Interrupt::Deadline)
     };
-    let ctx = &mut PlanContext {
-        rng: &mut rng,
-        interrupt: &interrupt,
-    };
+    let ctx = &mut PlanContext::new(&mut rng, &interrupt);
     let plan = solve(planner.as_ref(), &grid, &q, SolveOptions::default(), ctx).unwrap();
     assert!(plan.stats.cut_short);
+    assert_eq!(
+        plan.stats.termination,
+        Some(Termination::Interrupted(Interrupt::Deadline))
+    );
     assert!(plan.metrics.collision_free);
     assert!(
         plan.stats.iterations > 0 && plan.stats.iterations < 100,
@@ -123,10 +135,7 @@ fn an_interrupted_swarm_returns_its_best_so_far() {
         plan.stats.iterations
     );
     let mut rng = PlannerRng::seed_from_u64(0);
-    let ctx = &mut PlanContext {
-        rng: &mut rng,
-        interrupt: &|| Some(planner_core::planner::Interrupt::Deadline),
-    };
+    let ctx = &mut PlanContext::new(&mut rng, &|| Some(Interrupt::Deadline));
     assert_eq!(
         solve(planner.as_ref(), &grid, &q, SolveOptions::default(), ctx).unwrap_err(),
         planner_core::planner::PlanError::TimedOut

@@ -1,10 +1,10 @@
 //! The potential field on the substation paper's complex 20 x 20 map: its U trap is a local
 //! minimum of the plain field, and the virtual-traction escape leaves it.
 
+use planner_core::field::{descend, descend_plain, ApfParams};
 use planner_core::geometry::Point2;
-use planner_core::inflation::{InflationConfig, PlanningGrid};
-use planner_core::potential::{descend, descend_plain, ApfParams};
-use planner_core::raycast::path_is_free;
+use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
+use planner_core::grid::raycast::path_is_free;
 use std::path::PathBuf;
 
 fn complex_map() -> PlanningGrid {

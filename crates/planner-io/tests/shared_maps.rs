@@ -153,7 +153,7 @@ fn config_typos_are_errors() {
     )
     .unwrap();
     let err = load_planner_config(&p).unwrap_err().to_string();
-    assert!(err.contains("unknown planner"), "{err}");
+    assert!(err.contains("unknown planner `dijkstra`"), "{err}");
 }
 
 /// A map_server YAML whose image is missing fails with the image's path in the message.

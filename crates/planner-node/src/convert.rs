@@ -2,6 +2,7 @@
 //! keep the same split): frames and quaternions checked here, paths densified, failures mapped to
 //! the Nav2 result code names that `/diagnostics` reports.
 
+use crate::result::{Failure, ResultCode};
 use patrol_msgs::builtin_interfaces::Time;
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Vector3};
@@ -10,43 +11,9 @@ use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::{GridMap, MapError, MapInfo};
-use planner_core::planner::{Plan, PlanError};
+use planner_core::planner::Plan;
+use planner_core::PlannerName;
 use ros_edge::quaternion_from_yaw;
-
-/// Why a request could not be planned, with the code `/diagnostics` reports.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Failure {
-    /// Nav2's result code names (NONE, START_OUTSIDE_MAP, GOAL_OUTSIDE_MAP, START_OCCUPIED,
-    /// GOAL_OCCUPIED, TIMEOUT, NO_VALID_PATH, INVALID_PLANNER, TF_ERROR) and this node's own:
-    /// INVALID_INPUT (NaN pose, zero quaternion, malformed map), NO_MAP, NO_START_POSE, CANCELLED.
-    pub code: &'static str,
-    pub message: String,
-}
-
-impl Failure {
-    pub fn new(code: &'static str, message: impl Into<String>) -> Self {
-        Self {
-            code,
-            message: message.into(),
-        }
-    }
-}
-
-impl From<PlanError> for Failure {
-    fn from(e: PlanError) -> Self {
-        let code = match &e {
-            PlanError::StartOutsideMap(_) => "START_OUTSIDE_MAP",
-            PlanError::GoalOutsideMap(_) => "GOAL_OUTSIDE_MAP",
-            PlanError::StartOccupied(_) => "START_OCCUPIED",
-            PlanError::GoalOccupied(_) => "GOAL_OCCUPIED",
-            PlanError::TimedOut => "TIMEOUT",
-            PlanError::Cancelled => "CANCELLED",
-            PlanError::InvalidInput(_) => "INVALID_INPUT",
-            _ => "NO_VALID_PATH",
-        };
-        Failure::new(code, e.to_string())
-    }
-}
 
 /// The heading of a quaternion (rotation about z), normalising it first. A quaternion that is
 /// not finite or has (almost) zero length is refused.
@@ -54,7 +21,7 @@ pub fn yaw_from_quaternion(q: &Quaternion) -> Result<f64, Failure> {
     let n = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
     if !n.is_finite() || n < 1e-9 {
         return Err(Failure::new(
-            "INVALID_INPUT",
+            ResultCode::InvalidInput,
             format!(
                 "quaternion ({}, {}, {}, {}) cannot be normalised",
                 q.x, q.y, q.z, q.w
@@ -71,7 +38,7 @@ pub fn pose_in_frame(msg: &PoseStamped, global_frame: &str) -> Result<Pose2, Fai
     let frame = frame_name(&msg.header.frame_id);
     if !frame.is_empty() && frame != global_frame {
         return Err(Failure::new(
-            "TF_ERROR",
+            ResultCode::TfError,
             format!("pose is in frame `{frame}`; this node plans in `{global_frame}` and has no transform from `{frame}`"),
         ));
     }
@@ -93,7 +60,7 @@ pub fn pose2(p: &Pose) -> Result<Pose2, Failure> {
     let (x, y) = (p.position.x, p.position.y);
     if !(x.is_finite() && y.is_finite() && p.position.z.is_finite()) {
         return Err(Failure::new(
-            "INVALID_INPUT",
+            ResultCode::InvalidInput,
             format!("position ({x}, {y}, {}) is not finite", p.position.z),
         ));
     }
@@ -105,7 +72,7 @@ pub fn transform2(t: &Transform) -> Result<Pose2, Failure> {
     let v = &t.translation;
     if !(v.x.is_finite() && v.y.is_finite() && v.z.is_finite()) {
         return Err(Failure::new(
-            "INVALID_INPUT",
+            ResultCode::InvalidInput,
             format!("translation ({}, {}, {}) is not finite", v.x, v.y, v.z),
         ));
     }
@@ -189,7 +156,7 @@ pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Heade
 /// One `/diagnostics` status per request: the result code, the reason and the figures.
 pub fn diagnostics(
     header: Header,
-    planner: &str,
+    planner: PlannerName,
     seed: u64,
     outcome: Result<&Plan, &Failure>,
     elapsed_ms: f64,
@@ -199,7 +166,7 @@ pub fn diagnostics(
         value: v,
     };
     let mut values = vec![
-        kv("planner", planner.into()),
+        kv("planner", planner.to_string()),
         kv("seed", seed.to_string()),
         kv("planning_time_ms", format!("{elapsed_ms:.3}")),
     ];
@@ -210,16 +177,23 @@ pub fn diagnostics(
                 kv("length_m", format!("{:.4}", plan.metrics.length_m)),
                 kv("turning_rad", format!("{:.4}", plan.metrics.turning_rad)),
                 kv("cut_short", plan.stats.cut_short.to_string()),
+                kv(
+                    "termination",
+                    plan.stats
+                        .termination
+                        .map_or_else(String::new, |t| t.to_string()),
+                ),
             ]);
             (
                 0u8,
-                "NONE",
+                ResultCode::None,
                 format!("planned {:.2} m", plan.metrics.length_m),
             )
         }
         Err(f) => (2u8, f.code, f.message.clone()),
     };
-    values.insert(1, kv("result", code.into()));
+    values.insert(1, kv("result", code.name().into()));
+    values.insert(2, kv("result_code", code.number().to_string()));
     DiagnosticArray {
         header,
         status: vec![DiagnosticStatus {
@@ -322,13 +296,16 @@ mod tests {
         };
         assert_eq!(
             yaw_from_quaternion(&zero).unwrap_err().code,
-            "INVALID_INPUT"
+            ResultCode::InvalidInput
         );
         let nan = Quaternion {
             x: f64::NAN,
             ..Quaternion::default()
         };
-        assert_eq!(yaw_from_quaternion(&nan).unwrap_err().code, "INVALID_INPUT");
+        assert_eq!(
+            yaw_from_quaternion(&nan).unwrap_err().code,
+            ResultCode::InvalidInput
+        );
     }
 
     #[test]
@@ -346,7 +323,7 @@ mod tests {
         assert!((p.yaw - 0.5).abs() < 1e-12);
         let mut bad = t;
         bad.translation.y = f64::INFINITY;
-        assert_eq!(transform2(&bad).unwrap_err().code, "INVALID_INPUT");
+        assert_eq!(transform2(&bad).unwrap_err().code, ResultCode::InvalidInput);
         bad = t;
         bad.rotation = Quaternion {
             x: 0.0,
@@ -354,7 +331,7 @@ mod tests {
             z: 0.0,
             w: 0.0,
         };
-        assert_eq!(transform2(&bad).unwrap_err().code, "INVALID_INPUT");
+        assert_eq!(transform2(&bad).unwrap_err().code, ResultCode::InvalidInput);
         assert_eq!(frame_name("/map"), "map");
     }
 
@@ -368,19 +345,19 @@ mod tests {
             pose_in_frame(&stamped("odom", 1.0, 2.0, q), "map")
                 .unwrap_err()
                 .code,
-            "TF_ERROR"
+            ResultCode::TfError
         );
         assert_eq!(
             pose_in_frame(&stamped("map", f64::NAN, 2.0, q), "map")
                 .unwrap_err()
                 .code,
-            "INVALID_INPUT"
+            ResultCode::InvalidInput
         );
         assert_eq!(
             pose_in_frame(&stamped("map", 1.0, f64::INFINITY, q), "map")
                 .unwrap_err()
                 .code,
-            "INVALID_INPUT"
+            ResultCode::InvalidInput
         );
     }
 
@@ -437,23 +414,5 @@ mod tests {
             .sqrt();
             assert!(d <= 0.1 + 1e-12);
         }
-    }
-
-    #[test]
-    fn plan_errors_map_to_nav2_codes() {
-        let p = Point2::new(1.0, 2.0);
-        assert_eq!(
-            Failure::from(PlanError::GoalOccupied(p)).code,
-            "GOAL_OCCUPIED"
-        );
-        assert_eq!(
-            Failure::from(PlanError::StartOutsideMap(p)).code,
-            "START_OUTSIDE_MAP"
-        );
-        assert_eq!(Failure::from(PlanError::TimedOut).code, "TIMEOUT");
-        assert_eq!(
-            Failure::from(PlanError::NoValidPath("x".into())).code,
-            "NO_VALID_PATH"
-        );
     }
 }

@@ -3,23 +3,20 @@
 //! `/goal_pose`. Each message is checked on arrival; a bad one is answered on `/diagnostics`
 //! (maps, goals) or logged (poses, transforms), and the task goes on.
 
-use crate::convert::{self, Failure};
+use crate::convert;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
-use crate::state::Shared;
+use crate::result::{Failure, Outcome, ResultCode};
+use crate::state::{GoalSlot, Shared};
 use log::{error, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
-use planner_core::geometry::Pose2;
 use ros2_client::Subscription;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
 use tokio::sync::watch;
-
-/// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
-pub type GoalSlot = Option<(u64, Pose2)>;
 
 /// `/map`: each valid map replaces the current one (also while a plan runs: that plan keeps the
 /// map it started with); a malformed one is refused and the last good map kept.
@@ -31,10 +28,11 @@ pub async fn receive_maps(s: Arc<Shared>, o: Outputs, sub: Subscription<Occupanc
                     Ok(Ok(map)) => install_map(&s, map, "/map").await,
                     Ok(Err(e)) => {
                         let f = Failure::new(
-                            "INVALID_INPUT",
+                            ResultCode::InvalidInput,
                             format!("map on /map refused, keeping the last good one: {e}"),
                         );
-                        o.diagnose(&s, 0, Err(&f), 0.0).await;
+                        let planner = s.live.read().expect("lock").planner;
+                        o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
                     }
                     Err(e) => error!("map task: {e}"),
                 }
@@ -158,7 +156,10 @@ pub async fn receive_goals(
                 // Fails only when the planning task has ended, i.e. during shutdown.
                 let _ = slot.send(Some((id, goal)));
             }
-            Err(f) => o.diagnose(&s, 0, Err(&f), 0.0).await,
+            Err(f) => {
+                let planner = s.live.read().expect("lock").planner;
+                o.diagnose(&s, &Outcome::failed(planner, 0, f)).await
+            }
         }
     }
 }

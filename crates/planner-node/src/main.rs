@@ -13,9 +13,10 @@ mod node;
 mod outputs;
 mod params;
 mod planning;
+mod result;
 mod state;
 
-use params::NodeParams;
+use planner_io::parameters::{load_parameter_file, ParameterFile};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -23,19 +24,20 @@ fn main() -> ExitCode {
     ros_edge::logging::init(&["patrol_planner", "planner_core", "planner_io"]);
     let (path, explicit) = ros_edge::params_file("config/planner.yaml");
     let params = if explicit || path.exists() {
-        match NodeParams::load(&path) {
+        match load_parameter_file(&path) {
             Ok(p) => {
                 log::info!("parameters from {}", path.display());
                 p
             }
             Err(e) => {
-                log::error!("{e:#}");
+                // The same message `patrol-plan --config` gives for the same file.
+                log::error!("{e}");
                 return ExitCode::FAILURE;
             }
         }
     } else {
         log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
-        NodeParams::default()
+        ParameterFile::default()
     };
     match ros_edge::run_ros(node::run(params)) {
         Ok(()) => ExitCode::SUCCESS,

@@ -24,12 +24,12 @@
 
 use crate::convert;
 use crate::follow;
-use crate::inputs::{self, GoalSlot};
+use crate::inputs;
 use crate::localization::Localization;
 use crate::outputs::{CmdVel, Outputs};
-use crate::params::{validate_parameter, NodeParams};
+use crate::params::validate_parameter;
 use crate::planning::{self, install_map};
-use crate::state::{Live, Shared};
+use crate::state::{GoalSlot, Live, Shared};
 use anyhow::Result;
 use chassis::Twist2;
 use log::{error, info, warn};
@@ -39,6 +39,8 @@ use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odom
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::geometry::Pose2;
+use planner_core::params::ParamError;
+use planner_io::parameters::ParameterFile;
 use ros2_client::{
     qos::{Durability, History},
     MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, QosProfile, ServiceMapping,
@@ -48,15 +50,20 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
 
 /// Runs the node until Ctrl-C or SIGTERM.
-pub async fn run(params: NodeParams) -> Result<()> {
+pub async fn run(file: ParameterFile) -> Result<()> {
     let mut signals = ros_edge::ShutdownSignals::new()?;
+    let ParameterFile {
+        planning,
+        node: params,
+    } = file;
     let live = Live {
-        planner: params.planning.planner.clone(),
-        max_planning_time: params.planning.max_planning_time,
-        tolerance: params.planning.tolerance,
+        planner: planning.planner,
+        max_planning_time: planning.max_planning_time,
+        tolerance: planning.tolerance,
     };
     let shared = Arc::new(Shared {
         params: params.clone(),
+        planning,
         live: RwLock::new(live.clone()),
         map: RwLock::new(None),
         start: RwLock::new(None),
@@ -77,7 +84,7 @@ pub async fn run(params: NodeParams) -> Result<()> {
     let options = NodeOptions::new()
         .enable_rosout(true)
         .start_parameter_services(true)
-        .declare_parameter("planner", ParameterValue::String(live.planner.clone()))
+        .declare_parameter("planner", ParameterValue::String(live.planner.to_string()))
         .declare_parameter(
             "max_planning_time",
             ParameterValue::Double(live.max_planning_time),
@@ -90,7 +97,9 @@ pub async fn run(params: NodeParams) -> Result<()> {
                 .write()
                 .map_err(|_| "state lock poisoned".to_string())?;
             match (name, value) {
-                ("planner", ParameterValue::String(s)) => l.planner = s.clone(),
+                ("planner", ParameterValue::String(s)) => {
+                    l.planner = s.parse().map_err(|e: ParamError| e.to_string())?
+                }
                 ("max_planning_time", ParameterValue::Double(v)) => l.max_planning_time = *v,
                 ("tolerance", ParameterValue::Double(v)) => l.tolerance = *v,
                 _ => return Err(format!("`{name}` cannot be set at run time")),

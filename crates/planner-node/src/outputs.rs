@@ -1,8 +1,8 @@
 //! What the node publishes in answer: `/plan`, the Pareto markers, `/diagnostics` (and the log
 //! line that goes with every answer), and the follower's `/cmd_vel`.
 
-use crate::convert::{self, Failure};
-use crate::planning::Outcome;
+use crate::convert;
+use crate::result::Outcome;
 use crate::state::Shared;
 use chassis::Twist2;
 use log::{info, warn};
@@ -70,14 +70,10 @@ impl Outputs {
         }
     }
 
-    pub async fn diagnose(
-        &self,
-        s: &Shared,
-        seed: u64,
-        result: Result<&Plan, &Failure>,
-        elapsed_ms: f64,
-    ) {
-        let planner = s.live.read().expect("lock").planner.clone();
+    /// `/diagnostics` for one answer, labelled with the planner that gave it.
+    pub async fn diagnose(&self, s: &Shared, outcome: &Outcome) {
+        let (planner, seed, elapsed_ms) = (outcome.planner, outcome.seed, outcome.elapsed_ms);
+        let result = outcome.result.as_ref().map(|(p, _)| p);
         // The one place every answer is logged (terminal and /rosout) with its reason.
         match result {
             Ok(plan) => info!(
@@ -86,7 +82,7 @@ impl Outputs {
             ),
             Err(f) => warn!("{planner}: {}: {} (seed {seed})", f.code, f.message),
         }
-        let msg = convert::diagnostics(self.header(s), &planner, seed, result, elapsed_ms);
+        let msg = convert::diagnostics(self.header(s), planner, seed, result, elapsed_ms);
         if let Err(e) = self.diagnostics.async_publish(msg).await {
             warn!("/diagnostics: {e:?}");
         }
@@ -123,13 +119,7 @@ impl Outputs {
                 }
             }
         }
-        self.diagnose(
-            s,
-            outcome.seed,
-            outcome.result.as_ref().map(|(p, _)| p),
-            outcome.elapsed_ms,
-        )
-        .await;
+        self.diagnose(s, outcome).await;
         published
     }
 }

@@ -2,17 +2,18 @@
 //! with the current settings, run on tokio's blocking pool so the node keeps receiving meanwhile.
 //! A newer goal or `max_planning_time` interrupts a running plan.
 
-use crate::convert::{self, Failure};
-use crate::inputs::GoalSlot;
+use crate::convert;
 use crate::outputs::Outputs;
-use crate::state::{MapState, Shared};
+use crate::result::{Failure, Outcome, ResultCode};
+use crate::state::{GoalSlot, MapState, Shared};
 use chassis::follower::Follower;
 use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
+use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::GridMap;
-use planner_core::inflation::PlanningGrid;
-use planner_core::planner::{Interrupt, Plan, PlanContext, PlannerRng, Query, SolveOptions};
+use planner_core::grid::PlanningGrid;
+use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query, SolveOptions};
 use planner_core::registry;
 use rand::SeedableRng;
 use ros2_client::Server;
@@ -20,14 +21,6 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::watch;
-
-/// What one request produced.
-pub struct Outcome {
-    /// The plan and the goal's heading, or why not.
-    pub result: Result<(Plan, f64), Failure>,
-    pub seed: u64,
-    pub elapsed_ms: f64,
-}
 
 /// Plans on the current map with the current settings (blocking). `goal_id` makes the plan
 /// stop when a newer goal arrives.
@@ -39,23 +32,21 @@ pub fn plan(
     goal_id: Option<u64>,
 ) -> Outcome {
     let live = s.live.read().expect("lock").clone();
-    let seed = s.params.planning.seed.unwrap_or_else(rand::random);
-    let failed = |f: Failure| Outcome {
-        result: Err(f),
-        seed,
-        elapsed_ms: 0.0,
-    };
+    let seed = s.planning.seed.unwrap_or_else(rand::random);
+    let failed = |f: Failure| Outcome::failed(live.planner, seed, f);
     let Some(map) = s.map.read().expect("lock").clone() else {
         return failed(Failure::new(
-            "NO_MAP",
+            ResultCode::NoMap,
             "no map yet: publish /map or set map_yaml",
         ));
     };
-    let mut config = s.params.planning.clone();
-    config.planner = live.planner.clone();
-    let planner = match registry::build(&live.planner, &config) {
+    let config = PlannerConfig {
+        planner: live.planner,
+        ..s.planning.clone()
+    };
+    let planner = match registry::build(&config) {
         Ok(p) => p,
-        Err(e) => return failed(Failure::new("INVALID_PLANNER", e.to_string())),
+        Err(e) => return failed(Failure::new(ResultCode::InvalidPlanner, e.to_string())),
     };
     let t0 = Instant::now();
     let deadline = (live.max_planning_time > 0.0)
@@ -70,10 +61,7 @@ pub fn plan(
         }
     };
     let mut rng = PlannerRng::seed_from_u64(seed);
-    let mut ctx = PlanContext {
-        rng: &mut rng,
-        interrupt: &interrupt,
-    };
+    let mut ctx = PlanContext::new(&mut rng, &interrupt);
     let query = Query {
         start: start.position(),
         goal: Point2::new(goal.x, goal.y),
@@ -92,11 +80,13 @@ pub fn plan(
     match result {
         // Logged where the answer is published (Outputs::diagnose), with every other outcome.
         Ok(plan) => Outcome {
+            planner: live.planner,
             result: Ok((plan, goal.yaw)),
             seed,
             elapsed_ms,
         },
         Err(e) => Outcome {
+            planner: live.planner,
             result: Err(Failure::from(e)),
             seed,
             elapsed_ms,
@@ -106,7 +96,7 @@ pub fn plan(
 
 /// Validates a map into a planning grid (off the async threads) and makes it the current one.
 pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
-    let costmap = s.params.planning.costmap.clone();
+    let costmap = s.planning.costmap.clone();
     let (w, h) = (map.width(), map.height());
     match tokio::task::spawn_blocking(move || {
         PlanningGrid::new(&map, &costmap).map(|grid| MapState { map, grid })
@@ -125,11 +115,8 @@ pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
 /// A GetPlan request: its own start when it names a frame, else the current pose; its own
 /// tolerance when positive, else the node's.
 pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
-    let failed = |f: Failure| Outcome {
-        result: Err(f),
-        seed: 0,
-        elapsed_ms: 0.0,
-    };
+    let planner = s.live.read().expect("lock").planner;
+    let failed = |f: Failure| Outcome::failed(planner, 0, f);
     let goal = match convert::pose_in_frame(&req.goal, &s.params.global_frame) {
         Ok(g) => g,
         Err(f) => return failed(f),
@@ -139,7 +126,7 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
             Some(p) => p,
             None => {
                 return failed(Failure::new(
-                    "NO_START_POSE",
+                    ResultCode::NoStartPose,
                     "the request has no start (empty frame) and no pose arrived yet",
                 ))
             }
@@ -158,12 +145,25 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
     let s2 = s.clone();
     tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, None))
         .await
-        .unwrap_or_else(|e| {
-            failed(Failure::new(
-                "NO_VALID_PATH",
-                format!("planning task failed: {e}"),
-            ))
-        })
+        .unwrap_or_else(|e| failed(task_failure(e)))
+}
+
+/// A planning task that did not return: a panic in a planner is a bug, never silent. It is
+/// logged as an error and answered as UNKNOWN with the panic's message, and the node goes on.
+fn task_failure(e: tokio::task::JoinError) -> Failure {
+    let reason = match e.try_into_panic() {
+        Ok(panic) => panic
+            .downcast_ref::<&str>()
+            .map(|m| m.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".into()),
+        Err(e) => e.to_string(),
+    };
+    error!("planning task panicked (a bug, please report it with the seed): {reason}");
+    Failure::new(
+        ResultCode::Unknown,
+        format!("the planner panicked: {reason}"),
+    )
 }
 
 /// Plans the newest goal in the slot, publishes the answer, and hands a successful plan to the
@@ -179,26 +179,22 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         }
         let start = s.start.read().expect("lock").map(|(p, _)| p);
         let Some(start) = start else {
-            o.diagnose(
-                &s,
-                0,
-                Err(&Failure::new(
-                    "NO_START_POSE",
-                    "no start pose yet: publish /initialpose, /amcl_pose or /odom",
-                )),
-                0.0,
-            )
-            .await;
+            let planner = s.live.read().expect("lock").planner;
+            let f = Failure::new(
+                ResultCode::NoStartPose,
+                "no start pose yet: publish /initialpose, /amcl_pose or /odom",
+            );
+            o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
             continue;
         };
         let tolerance = s.live.read().expect("lock").tolerance;
         let s2 = s.clone();
-        let Ok(outcome) =
-            tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, Some(id))).await
-        else {
-            continue;
-        };
-        if matches!(&outcome.result, Err(f) if f.code == "CANCELLED") {
+        let planner = s.live.read().expect("lock").planner;
+        let outcome =
+            tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, Some(id)))
+                .await
+                .unwrap_or_else(|e| Outcome::failed(planner, 0, task_failure(e)));
+        if matches!(&outcome.result, Err(f) if f.code == ResultCode::Cancelled) {
             info!("plan for goal {id} cancelled by a newer goal");
             continue;
         }
@@ -239,13 +235,7 @@ pub async fn serve_get_plan(
             }
         };
         let outcome = answer_get_plan(&s, req).await;
-        o.diagnose(
-            &s,
-            outcome.seed,
-            outcome.result.as_ref().map(|(p, _)| p),
-            outcome.elapsed_ms,
-        )
-        .await;
+        o.diagnose(&s, &outcome).await;
         let plan = match &outcome.result {
             Ok((plan, goal_yaw)) => o.path(&s, plan, *goal_yaw),
             Err(_) => Path {

@@ -3,11 +3,13 @@
 //! followed. Locks are held only to copy a value in or out, never across an await or a plan.
 
 use crate::localization::Localization;
-use crate::params::NodeParams;
 use chassis::follower::Follower;
+use planner_core::config::PlannerConfig;
 use planner_core::geometry::Pose2;
 use planner_core::grid::GridMap;
-use planner_core::inflation::PlanningGrid;
+use planner_core::grid::PlanningGrid;
+use planner_core::PlannerName;
+use planner_io::parameters::NodeParams;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
@@ -15,7 +17,7 @@ use std::time::Instant;
 /// Settings that `ros2 param set` may change while the node runs.
 #[derive(Clone, Debug)]
 pub struct Live {
-    pub planner: String,
+    pub planner: PlannerName,
     pub max_planning_time: f64,
     pub tolerance: f64,
 }
@@ -28,7 +30,10 @@ pub struct MapState {
 
 /// What the tasks share.
 pub struct Shared {
+    /// The node's own parameters (frames, map, follower).
     pub params: NodeParams,
+    /// The planning parameters from the file; `live` overrides the ones set at run time.
+    pub planning: PlannerConfig,
     pub live: RwLock<Live>,
     pub map: RwLock<Option<Arc<MapState>>>,
     /// The latest start pose (map frame) and when it arrived.
@@ -44,3 +49,6 @@ pub struct Shared {
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
 }
+
+/// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
+pub type GoalSlot = Option<(u64, Pose2)>;

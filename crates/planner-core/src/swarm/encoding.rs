@@ -5,14 +5,14 @@
 //!   offsets `y'_j` at those stations. Compact and the paper's own, but it can only express paths
 //!   that move monotonically along X'.
 //! - [`Encoding::General`]: `i` free 2-D waypoints (`2 i` numbers), for maps where no monotone path
-//!   exists (a U trap between start and goal, ALGORITHMS.md).
+//!   exists (a U trap between start and goal, `docs/papers.md`).
 //!
 //! [`Encoding::choose`] keeps the paper's encoding wherever the seed path can be expressed in it
 //! without collision, and reports which one it used.
 
 use crate::geometry::{Point2, Vector2};
-use crate::inflation::PlanningGrid;
-use crate::raycast::path_is_free;
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::raycast::path_is_free;
 
 #[derive(Clone, Debug)]
 pub enum Encoding {

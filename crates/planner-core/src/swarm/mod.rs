@@ -1,4 +1,7 @@
-//! The patrol car paper's swarm planners (sections II.C–II.F, III), all on one driver:
+//! The patrol car paper's swarm planners (Zhao et al., "A Path Planning Method Based on
+//! Multi-Objective Cauchy Mutation Cat Swarm Optimization Algorithm for Navigation System of
+//! Intelligent Patrol Car", IEEE Access 2020, sections II.C–II.F and III; `docs/papers.md`), all
+//! on the population driver:
 //!
 //! | planner | family | objective | seeking mutation | mixture ratio |
 //! |---|---|---|---|---|
@@ -13,7 +16,7 @@
 //! local minimum; the result says which): its path is the first global best and the centre around
 //! which the population starts. A cat in seeking mode makes SMP copies, keeps one and moves CDC of
 //! the others' dimensions by `sigma * C` with `sigma = SRD * range` and `C` standard Cauchy
-//! (ALGORITHMS.md: the paper's "C(0, 1) uniform" contradicts the operator's name; `mutation:
+//! (`docs/papers.md`: the paper's "C(0, 1) uniform" contradicts the operator's name; `mutation:
 //! uniform` keeps the uniform variant for comparison). A cat in tracing mode follows eq. 10–11
 //! towards a leader from the archive, with the inertia falling linearly from 0.9 to 0.1 (table 3);
 //! a dimension that leaves its range is set to the bound and its velocity reversed (section II.C,
@@ -28,15 +31,17 @@
 pub mod encoding;
 pub mod pareto;
 
-use crate::astar::astar_cells;
-use crate::config::{check, check_counts, ParamError, Range};
+use crate::driver::{drive, Budget, Population};
+use crate::field::ApfParams;
 use crate::geometry::Point2;
-use crate::inflation::PlanningGrid;
-use crate::metrics::{path_length, total_turning};
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::metrics::{path_length, total_turning};
+use crate::grid::raycast::{blocked_length, path_is_free};
+use crate::grid::smoothing::delete_redundant;
+use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::potential::{descend, ApfParams};
-use crate::raycast::{blocked_length, path_is_free};
-use crate::smoothing::delete_redundant;
+use crate::registry::PlannerName;
+use crate::seed::field_or_astar;
 use encoding::Encoding;
 use pareto::{dominates, Archive, Eval};
 use rand::Rng;
@@ -73,6 +78,9 @@ pub struct SwarmParams {
     pub waypoints: usize,
     /// IT_max. Default 100.
     pub iterations: usize,
+    /// Stop after this many iterations without a better best value (the driver's one patience
+    /// rule). Unset (default): run all `iterations`, as the paper does.
+    pub patience: Option<usize>,
     /// Seeking memory pool: copies per seeking cat. Default 3.
     pub smp: usize,
     /// Seeking range of the selected dimension, as a share of its range. Default 0.05.
@@ -110,6 +118,7 @@ impl Default for SwarmParams {
             population: 50,
             waypoints: 32,
             iterations: 100,
+            patience: None,
             smp: 3,
             srd: 0.05,
             cdc: 0.8,
@@ -140,6 +149,7 @@ impl SwarmParams {
                 ("swarm.iterations", self.iterations),
                 ("swarm.smp", self.smp),
                 ("swarm.archive_size", self.archive_size),
+                ("swarm.patience", self.patience.unwrap_or(1)),
             ],
         )?;
         check(
@@ -189,23 +199,14 @@ pub enum Variant {
 }
 
 impl Variant {
-    pub const ALL: [Variant; 6] = [
-        Variant::Mocmcso,
-        Variant::Mocso,
-        Variant::Mopso,
-        Variant::Cmcso,
-        Variant::Cso,
-        Variant::Pso,
-    ];
-
-    pub fn name(self) -> &'static str {
+    pub fn name(self) -> PlannerName {
         match self {
-            Variant::Mocmcso => "mocmcso",
-            Variant::Mocso => "mocso",
-            Variant::Mopso => "mopso",
-            Variant::Cmcso => "cmcso",
-            Variant::Cso => "cso",
-            Variant::Pso => "pso",
+            Variant::Mocmcso => PlannerName::Mocmcso,
+            Variant::Mocso => PlannerName::Mocso,
+            Variant::Mopso => PlannerName::Mopso,
+            Variant::Cmcso => PlannerName::Cmcso,
+            Variant::Cso => PlannerName::Cso,
+            Variant::Pso => PlannerName::Pso,
         }
     }
 
@@ -234,14 +235,14 @@ pub struct SwarmPlanner {
 }
 
 impl Planner for SwarmPlanner {
-    fn name(&self) -> &'static str {
+    fn name(&self) -> PlannerName {
         self.variant.name()
     }
 
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
         let grid = problem.grid;
-        let mut stats = PlanStats::default();
-        let raw = seed_path(problem, &self.apf, ctx, &mut stats)?;
+        let mut start_stats = PlanStats::default();
+        let raw = seed_path(problem, &self.apf, ctx, &mut start_stats)?;
         let allow_lateral = self.params.encoding == EncodingChoice::Auto;
         // The paper's first global best is the field's path itself, sampled at the stations
         // (section II.E step 2). Where those samples cut a corner into an obstacle, the
@@ -264,7 +265,7 @@ impl Planner for SwarmPlanner {
         let (enc, seed_x) = match lateral {
             Some(chosen) => chosen,
             None => {
-                stats.notes.push(
+                start_stats.notes.push(
                     "seed: string-pulled, since the raw path does not fit the lateral stations"
                         .into(),
                 );
@@ -276,21 +277,241 @@ impl Planner for SwarmPlanner {
                 )
             }
         };
-        stats
+        start_stats
             .notes
             .push(format!("encoding: {}, dimension {}", enc.name(), enc.dim()));
-        let mut search = Search::new(grid, &enc, &self.params, self.variant);
-        let (best, pareto) = search.run(&seed_x, ctx, &mut stats);
-        if best == seed_x {
+        let swarm = Swarm::new(
+            Search::new(grid, &enc, &self.params, self.variant),
+            seed_x,
+            start_stats,
+        );
+        let budget = Budget {
+            iterations: self.params.iterations,
+            patience: self.params.patience,
+        };
+        drive(swarm, budget, ctx)
+    }
+}
+
+/// The swarm's first global best: the potential-field path, or A*'s when the field cannot reach
+/// the goal, as a feasible polyline from the exact start to the exact goal.
+fn seed_path(
+    problem: &Problem<'_>,
+    apf: &ApfParams,
+    ctx: &PlanContext<'_>,
+    stats: &mut PlanStats,
+) -> Result<Vec<Point2>, PlanError> {
+    let grid = problem.grid;
+    let cells = field_or_astar(problem, apf, ctx, stats, "seed")?;
+    let mut pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
+    pts[0] = problem.start_point;
+    *pts.last_mut().expect("non-empty") = problem.goal_point;
+    if !path_is_free(grid, &pts) {
+        // Exact end points inside their cells can graze a corner; keep the centres then.
+        pts = cells.iter().map(|c| c.center()).collect();
+        pts.insert(0, problem.start_point);
+        pts.push(problem.goal_point);
+    }
+    Ok(pts)
+}
+
+/// A swarm's state between iterations: the population, velocities, personal bests, the Pareto
+/// archive (multi-objective variants) or the best so far (single-objective ones). The driver
+/// runs it.
+struct Swarm<'a> {
+    search: Search<'a>,
+    /// The seed vector: the first member and the first global best.
+    seed: Vec<f64>,
+    /// Notes and counters of the seed, handed to the driver's statistics at `init`.
+    start_stats: PlanStats,
+    archive: Archive,
+    best: (Vec<f64>, Eval),
+    xs: Vec<Vec<f64>>,
+    evals: Vec<Eval>,
+    vs: Vec<Vec<f64>>,
+    pbest: Vec<(Vec<f64>, Eval)>,
+    cauchy: Cauchy<f64>,
+    /// The archive's vectors laid end to end, refilled each iteration (no allocation per member).
+    leaders: Vec<f64>,
+}
+
+impl<'a> Swarm<'a> {
+    fn new(search: Search<'a>, seed: Vec<f64>, start_stats: PlanStats) -> Self {
+        let p = search.p;
+        Self {
+            archive: Archive::new(p.archive_size),
+            // Replaced by the seed's evaluation at `init`.
+            best: (
+                seed.clone(),
+                Eval {
+                    f1: f64::INFINITY,
+                    f2: f64::INFINITY,
+                    violation: f64::INFINITY,
+                },
+            ),
+            xs: Vec::with_capacity(p.population),
+            evals: Vec::with_capacity(p.population),
+            vs: Vec::new(),
+            pbest: Vec::new(),
+            cauchy: Cauchy::new(0.0, 1.0).expect("valid Cauchy"),
+            leaders: Vec::with_capacity(p.archive_size * seed.len()),
+            search,
+            seed,
+            start_stats,
+        }
+    }
+}
+
+impl Population for Swarm<'_> {
+    /// The population around the seed (section II.E steps 1-2); the first member is the seed.
+    fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError> {
+        let start = std::mem::take(&mut self.start_stats);
+        stats.notes.extend(start.notes);
+        stats.counters.extend(start.counters);
+        let search = &mut self.search;
+        let p = search.p;
+        let seed_eval = search.evaluate(&self.seed);
+        search.scale = (seed_eval.f1.max(1e-9), seed_eval.f2.max(1e-3));
+        self.archive.offer(&self.seed, seed_eval);
+        self.best = (self.seed.clone(), seed_eval);
+        for k in 0..p.population {
+            let mut x = self.seed.clone();
+            if k > 0 {
+                for (v, range) in x.iter_mut().zip(&search.range) {
+                    *v += ctx.rng.random_range(-1.0..=1.0) * p.init_spread * range;
+                }
+                search.clamp(&mut x);
+            }
+            let e = if k == 0 {
+                seed_eval
+            } else {
+                search.evaluate(&x)
+            };
+            search.offer(&mut self.archive, &mut self.best, &x, e);
+            self.xs.push(x);
+            self.evals.push(e);
+        }
+        self.vs = vec![vec![0.0; self.seed.len()]; p.population];
+        self.pbest = self
+            .xs
+            .iter()
+            .cloned()
+            .zip(self.evals.iter().copied())
+            .collect();
+        Ok(search.progress(&self.archive, &self.best))
+    }
+
+    /// One iteration: every cat seeks (eq. 12-13) or traces (eq. 10-11), every particle moves.
+    fn step(&mut self, t: usize, ctx: &mut PlanContext<'_>) -> f64 {
+        let search = &mut self.search;
+        let p = search.p;
+        let variant = search.variant;
+        let dim = self.seed.len();
+        let w = if variant == Variant::Mopso {
+            p.mopso_inertia
+        } else {
+            p.inertia(t)
+        };
+        let mr = if variant.improved() {
+            p.linear_mr(t)
+        } else {
+            p.mr_fixed
+        };
+        // Leaders come from the archive as it stood at the start of the iteration; its
+        // crowding distances are computed once here, not once per cat.
+        let crowding = if variant.multi_objective() {
+            pareto::crowding_distances(&self.archive.objectives())
+        } else {
+            Vec::new()
+        };
+        self.leaders.clear();
+        for (x, _) in &self.archive.members {
+            self.leaders.extend_from_slice(x);
+        }
+        for k in 0..p.population {
+            let leader = search.leader(&self.leaders, &crowding, &self.best, ctx);
+            if variant.is_cat() && ctx.rng.random::<f64>() < mr {
+                // Seeking mode.
+                let mut candidates = vec![(self.xs[k].clone(), self.evals[k])];
+                for _ in 1..p.smp {
+                    let mut c = self.xs[k].clone();
+                    let changes = ((p.cdc * dim as f64).round() as usize).max(1);
+                    for _ in 0..changes {
+                        let d = ctx.rng.random_range(0..dim);
+                        let sigma = p.srd * search.range[d];
+                        let jump = match (variant.improved(), p.mutation) {
+                            (true, Mutation::Cauchy) => self.cauchy.sample(ctx.rng),
+                            _ => ctx.rng.random_range(-1.0..=1.0),
+                        };
+                        c[d] += sigma * jump;
+                    }
+                    search.clamp(&mut c);
+                    let e = search.evaluate(&c);
+                    search.offer(&mut self.archive, &mut self.best, &c, e);
+                    candidates.push((c, e));
+                }
+                // The best copy: a non-dominated one (random among ties), or the best scalar.
+                let pick = search.pick_best(&candidates, ctx);
+                (self.xs[k], self.evals[k]) = candidates.swap_remove(pick);
+            } else {
+                // Tracing mode (eq. 10-11) or the particle update.
+                let (c1, c2) = if variant.is_cat() {
+                    (0.0, p.acceleration)
+                } else if variant == Variant::Mopso {
+                    (p.mopso_acceleration / 2.0, p.mopso_acceleration / 2.0)
+                } else {
+                    (p.acceleration, p.acceleration)
+                };
+                let (x, v, own_best) = (&mut self.xs[k], &mut self.vs[k], &self.pbest[k].0);
+                for (d, &lead) in leader.iter().enumerate() {
+                    let r1: f64 = ctx.rng.random();
+                    let r2: f64 = ctx.rng.random();
+                    v[d] = w * v[d] + c1 * r1 * (own_best[d] - x[d]) + c2 * r2 * (lead - x[d]);
+                    x[d] += v[d];
+                }
+                Search::clamp_with(search.enc, &mut self.xs[k], &mut self.vs[k]);
+                let e = search.evaluate(&self.xs[k]);
+                self.evals[k] = e;
+                let x = self.xs[k].clone();
+                search.offer(&mut self.archive, &mut self.best, &x, e);
+            }
+            if search.better(&self.evals[k], &self.pbest[k].1)
+                || (!search.better(&self.pbest[k].1, &self.evals[k]) && ctx.rng.random_bool(0.5))
+            {
+                self.pbest[k] = (self.xs[k].clone(), self.evals[k]);
+            }
+        }
+        search.progress(&self.archive, &self.best)
+    }
+
+    fn evaluations(&self) -> u64 {
+        self.search.evaluations
+    }
+
+    /// Eq. 19-21's choice from the archive (multi-objective variants) or the best so far, with
+    /// the front.
+    fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+        let enc = self.search.enc;
+        let (best, front) = if self.search.variant.multi_objective() {
+            let chosen = self
+                .archive
+                .choose(self.search.p.length_weight)
+                .map(|m| m.0.clone())
+                .unwrap_or_else(|| self.seed.clone());
+            (chosen, self.archive.members)
+        } else {
+            (self.best.0, Vec::new())
+        };
+        let improved = best != self.seed;
+        if !improved {
             stats
                 .notes
                 .push("the swarm did not improve on its seed; the seed path is returned".into());
         }
-        stats.counters.insert(
-            "improved_on_seed".into(),
-            if best == seed_x { 0.0 } else { 1.0 },
-        );
-        let pareto = pareto
+        stats
+            .counters
+            .insert("improved_on_seed".into(), if improved { 1.0 } else { 0.0 });
+        let pareto = front
             .into_iter()
             .map(|(x, e)| ParetoMember {
                 f1_length_m: e.f1,
@@ -304,47 +525,6 @@ impl Planner for SwarmPlanner {
             pareto,
         })
     }
-}
-
-/// The swarm's first global best: the potential-field path, or A*'s when the field cannot reach
-/// the goal, as a feasible polyline from the exact start to the exact goal.
-fn seed_path(
-    problem: &Problem<'_>,
-    apf: &ApfParams,
-    ctx: &PlanContext<'_>,
-    stats: &mut PlanStats,
-) -> Result<Vec<Point2>, PlanError> {
-    let grid = problem.grid;
-    let cells = match descend(grid, apf, problem.start, problem.goal) {
-        Ok(path) => {
-            stats
-                .counters
-                .insert("apf_escapes".into(), path.escapes as f64);
-            stats.notes.push(format!(
-                "seed: potential field ({} local minima escaped)",
-                path.escapes
-            ));
-            path.cells
-        }
-        Err(failure) => {
-            stats.notes.push(format!(
-                "seed: A*, because the potential field failed ({}, after {} steps)",
-                failure.reason, failure.steps
-            ));
-            stats.counters.insert("apf_fallback".into(), 1.0);
-            astar_cells(grid, problem.start, problem.goal, ctx)?.0
-        }
-    };
-    let mut pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
-    pts[0] = problem.start_point;
-    *pts.last_mut().expect("non-empty") = problem.goal_point;
-    if !path_is_free(grid, &pts) {
-        // Exact end points inside their cells can graze a corner; keep the centres then.
-        pts = cells.iter().map(|c| c.center()).collect();
-        pts.insert(0, problem.start_point);
-        pts.push(problem.goal_point);
-    }
-    Ok(pts)
 }
 
 /// One run of a swarm.
@@ -428,147 +608,6 @@ impl<'a> Search<'a> {
     fn clamp(&self, x: &mut [f64]) {
         for ((v, &l), &h) in x.iter_mut().zip(self.enc.lo()).zip(self.enc.hi()) {
             *v = v.clamp(l, h);
-        }
-    }
-
-    /// Runs the swarm from a feasible seed vector. Returns the chosen vector and the Pareto front
-    /// (empty for single-objective variants).
-    fn run(
-        &mut self,
-        seed: &[f64],
-        ctx: &mut PlanContext<'_>,
-        stats: &mut PlanStats,
-    ) -> (Vec<f64>, Vec<(Vec<f64>, Eval)>) {
-        let dim = seed.len();
-        let seed_eval = self.evaluate(seed);
-        self.scale = (seed_eval.f1.max(1e-9), seed_eval.f2.max(1e-3));
-        let mut archive = Archive::new(self.p.archive_size);
-        archive.offer(seed, seed_eval);
-        let mut best = (seed.to_vec(), seed_eval);
-        // Population around the seed; the first member is the seed itself.
-        let mut xs: Vec<Vec<f64>> = Vec::with_capacity(self.p.population);
-        let mut evals = Vec::with_capacity(self.p.population);
-        for k in 0..self.p.population {
-            let mut x = seed.to_vec();
-            if k > 0 {
-                for (v, range) in x.iter_mut().zip(&self.range) {
-                    *v += ctx.rng.random_range(-1.0..=1.0) * self.p.init_spread * range;
-                }
-                self.clamp(&mut x);
-            }
-            let e = if k == 0 { seed_eval } else { self.evaluate(&x) };
-            self.offer(&mut archive, &mut best, &x, e);
-            xs.push(x);
-            evals.push(e);
-        }
-        let mut vs = vec![vec![0.0; dim]; self.p.population];
-        let mut pbest: Vec<(Vec<f64>, Eval)> =
-            xs.iter().cloned().zip(evals.iter().copied()).collect();
-        let cauchy = Cauchy::new(0.0, 1.0).expect("valid Cauchy");
-        let mut best_score = self.progress(&archive, &best);
-        let mut leaders: Vec<f64> = Vec::with_capacity(self.p.archive_size * dim);
-        for t in 0..self.p.iterations {
-            if (ctx.interrupt)().is_some() {
-                stats.cut_short = true;
-                break;
-            }
-            stats.iterations += 1;
-            let w = if self.variant == Variant::Mopso {
-                self.p.mopso_inertia
-            } else {
-                self.p.inertia(t)
-            };
-            let mr = if self.variant.improved() {
-                self.p.linear_mr(t)
-            } else {
-                self.p.mr_fixed
-            };
-            // Leaders come from the archive as it stood at the start of the iteration; its
-            // crowding distances are computed once here, not once per cat.
-            let crowding = if self.variant.multi_objective() {
-                pareto::crowding_distances(&archive.objectives())
-            } else {
-                Vec::new()
-            };
-            // A flat copy, reusing one buffer: no allocation per member per iteration.
-            leaders.clear();
-            for (x, _) in &archive.members {
-                leaders.extend_from_slice(x);
-            }
-            for k in 0..self.p.population {
-                let leader = self.leader(&leaders, &crowding, &best, ctx);
-                if self.variant.is_cat() && ctx.rng.random::<f64>() < mr {
-                    // Seeking mode.
-                    let mut candidates = vec![(xs[k].clone(), evals[k])];
-                    for _ in 1..self.p.smp {
-                        let mut c = xs[k].clone();
-                        let changes = ((self.p.cdc * dim as f64).round() as usize).max(1);
-                        for _ in 0..changes {
-                            let d = ctx.rng.random_range(0..dim);
-                            let sigma = self.p.srd * self.range[d];
-                            let jump = match (self.variant.improved(), self.p.mutation) {
-                                (true, Mutation::Cauchy) => cauchy.sample(ctx.rng),
-                                _ => ctx.rng.random_range(-1.0..=1.0),
-                            };
-                            c[d] += sigma * jump;
-                        }
-                        self.clamp(&mut c);
-                        let e = self.evaluate(&c);
-                        self.offer(&mut archive, &mut best, &c, e);
-                        candidates.push((c, e));
-                    }
-                    // The best copy: a non-dominated one (random among ties), or the best scalar.
-                    let pick = self.pick_best(&candidates, ctx);
-                    (xs[k], evals[k]) = candidates.swap_remove(pick);
-                } else {
-                    // Tracing mode (eq. 10-11) or the particle update.
-                    let (c1, c2) = if self.variant.is_cat() {
-                        (0.0, self.p.acceleration)
-                    } else if self.variant == Variant::Mopso {
-                        (
-                            self.p.mopso_acceleration / 2.0,
-                            self.p.mopso_acceleration / 2.0,
-                        )
-                    } else {
-                        (self.p.acceleration, self.p.acceleration)
-                    };
-                    for d in 0..dim {
-                        let r1: f64 = ctx.rng.random();
-                        let r2: f64 = ctx.rng.random();
-                        vs[k][d] = w * vs[k][d]
-                            + c1 * r1 * (pbest[k].0[d] - xs[k][d])
-                            + c2 * r2 * (leader[d] - xs[k][d]);
-                        xs[k][d] += vs[k][d];
-                    }
-                    let (x, v) = (&mut xs[k], &mut vs[k]);
-                    Self::clamp_with(self.enc, x, v);
-                    let e = self.evaluate(&xs[k]);
-                    evals[k] = e;
-                    let x = xs[k].clone();
-                    self.offer(&mut archive, &mut best, &x, e);
-                }
-                if self.better(&evals[k], &pbest[k].1)
-                    || (!self.better(&pbest[k].1, &evals[k]) && ctx.rng.random_bool(0.5))
-                {
-                    pbest[k] = (xs[k].clone(), evals[k]);
-                }
-            }
-            let score = self.progress(&archive, &best);
-            stats.convergence.push(score);
-            if score < best_score - 1e-12 {
-                best_score = score;
-                stats.best_iteration = Some(t as u64 + 1);
-            }
-        }
-        stats.evaluations = self.evaluations;
-        if self.variant.multi_objective() {
-            let chosen = archive
-                .choose(self.p.length_weight)
-                .map(|m| m.0.clone())
-                .unwrap_or_else(|| seed.to_vec());
-            (chosen, archive.members)
-        } else {
-            (best.0, Vec::new())
         }
     }
 

@@ -2,7 +2,7 @@
 //!
 //! Objectives (patrol car paper eq. 18): f1 the path length (m), f2 the total turning angle (rad,
 //! eq. 17). Infeasible candidates are dominated by every feasible one (constraint domination) and
-//! ordered among themselves by how much of their length lies in obstacles (ALGORITHMS.md). The
+//! ordered among themselves by how much of their length lies in obstacles (`docs/papers.md`). The
 //! archive keeps at most `capacity` non-dominated feasible solutions, pruning the most crowded
 //! (NSGA-II crowding distance). The final choice is eq. 19–21: each objective normalised by its
 //! sum over the archive, then the smallest weighted sum (weight 0.5: the "midpoint" of the front).

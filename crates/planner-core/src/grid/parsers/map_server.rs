@@ -10,7 +10,7 @@
 //! Image row 0 is the top of the picture; grid row 0 is the bottom, so rows are flipped.
 
 use crate::geometry::Pose2;
-use crate::grid::{GridMap, MapError, MapInfo, DEFAULT_MAX_CELLS, UNKNOWN};
+use crate::grid::map::{GridMap, MapError, MapInfo, DEFAULT_MAX_CELLS, UNKNOWN};
 use serde::Deserialize;
 
 /// How pixel values become occupancy values.

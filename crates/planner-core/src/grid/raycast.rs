@@ -6,7 +6,7 @@
 //! free. This is the single collision rule of the project; every planner, metric and test uses it.
 
 use crate::geometry::{Cell, Point2};
-use crate::inflation::PlanningGrid;
+use crate::grid::inflation::PlanningGrid;
 
 /// Two `t` values closer than this are treated as one crossing of a cell corner.
 const CORNER_EPS: f64 = 1e-9;

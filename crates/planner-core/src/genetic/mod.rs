@@ -1,5 +1,7 @@
 //! The improved multi-objective genetic algorithm (IMGA) of the genetic algorithm paper
-//! (`imga-multiobjective-ga.txt`, sections 3.3–4.6) and a plain GA baseline, on one driver.
+//! (Li, Hu, Liu, "Path Planning of Mobile Robot Based on Improved Multiobjective Genetic
+//! Algorithm", Wireless Communications and Mobile Computing 2021, sections 3.3–4.6;
+//! `docs/papers.md`) and a plain GA baseline, on the population driver.
 //!
 //! - Chromosome: the cells of a continuous path from start to goal, no repeats, no obstacles.
 //!   "Continuous" uses A*'s move rule (8-neighbours, no corner cutting), so every chromosome also
@@ -17,21 +19,24 @@
 //!   8-neighbourhood (cells outside the map count as blocked: the robot cannot go there either);
 //!   energy, per heading change, the quadrant of the new heading in the frame of the old one:
 //!   first (ahead, a 45 deg turn) +1, second or fourth (a 90 deg turn) +3, third (behind: 135 or
-//!   180 deg) +10, no turn 0. Weights 1.0 / 0.5 / 0.5 (ALGORITHMS.md: lost from the text).
+//!   180 deg) +10, no turn 0. Weights 1.0 / 0.5 / 0.5 (`docs/papers.md`: lost from the text).
 //! - Layered selection (4.3.1): sorted by fitness, three layers of `N / 3`; the first copied
 //!   twice, the second once, the rest filled from the best of the third. The plain GA uses
 //!   roulette selection on `1 / fitness`.
 //! - Single-point crossover at a cell both parents share (4.3.2); eight-neighbourhood single-point
 //!   mutation with reconnection by median insertion (4.3.3); loops a splice creates are cut, so
 //!   children stay repeat-free.
-//! - Termination (4.4): `generations`, or `stall_generations` without a better best, or the
-//!   interrupt callback (the best so far comes back).
+//! - Termination (4.4): `generations`, or `patience` generations without a better best (the
+//!   paper's 40), or the interrupt callback (the best so far comes back): the population driver's
+//!   one rule.
 //! - The delete operation (4.5) on the best path: on by default for `imga`, off for `ga`.
 
-use crate::config::{check, check_counts, ParamError, Range};
+use crate::driver::{drive, Budget, Population};
 use crate::geometry::{Cell, NEIGHBOURS_8};
-use crate::inflation::PlanningGrid;
+use crate::grid::inflation::PlanningGrid;
+use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::registry::PlannerName;
 use rand::seq::{IndexedRandom, SliceRandom};
 use rand::Rng;
 use rustc_hash::{FxHashMap, FxHashSet};
@@ -45,8 +50,10 @@ pub struct GaParams {
     pub population: usize,
     /// Generations. Default 50 (paper).
     pub generations: usize,
-    /// Stop after this many generations without a better best. Default 40 (paper).
-    pub stall_generations: usize,
+    /// Stop after this many generations without a better best (the driver's one patience rule).
+    /// Default 40 (paper). Also read under its old name, `stall_generations`.
+    #[serde(alias = "stall_generations")]
+    pub patience: usize,
     /// Probability that a pair is crossed. Default 0.8.
     pub crossover_rate: f64,
     /// Probability that an individual is mutated. Default 0.2.
@@ -68,7 +75,7 @@ impl Default for GaParams {
         Self {
             population: 30,
             generations: 50,
-            stall_generations: 40,
+            patience: 40,
             crossover_rate: 0.8,
             mutation_rate: 0.2,
             weight_length: 1.0,
@@ -87,7 +94,7 @@ impl GaParams {
             1,
             &[
                 ("genetic.generations", self.generations),
-                ("genetic.stall_generations", self.stall_generations),
+                ("genetic.patience", self.patience),
                 ("genetic.init_attempts", self.init_attempts),
             ],
         )?;
@@ -121,11 +128,10 @@ pub enum GaVariant {
 }
 
 impl GaVariant {
-    pub const ALL: [GaVariant; 2] = [GaVariant::Imga, GaVariant::Ga];
-    pub fn name(self) -> &'static str {
+    pub fn name(self) -> PlannerName {
         match self {
-            GaVariant::Imga => "imga",
-            GaVariant::Ga => "ga",
+            GaVariant::Imga => PlannerName::Imga,
+            GaVariant::Ga => PlannerName::Ga,
         }
     }
 }
@@ -144,15 +150,6 @@ pub struct FitnessTerms {
     pub energy: f64,
 }
 
-/// Whether two cells are neighbours by A*'s move rule (no corner cutting).
-pub fn adjacent(grid: &PlanningGrid, a: Cell, b: Cell) -> bool {
-    let (dx, dy) = (b.x - a.x, b.y - a.y);
-    if dx.abs() > 1 || dy.abs() > 1 || (dx == 0 && dy == 0) {
-        return false;
-    }
-    dx == 0 || dy == 0 || (grid.is_free(a.offset(dx, 0)) && grid.is_free(a.offset(0, dy)))
-}
-
 /// A chromosome is valid when it runs from `start` to `goal` through free cells, each step to a
 /// neighbour, with no cell twice.
 pub fn is_valid(grid: &PlanningGrid, path: &[Cell], start: Cell, goal: Cell) -> bool {
@@ -160,7 +157,7 @@ pub fn is_valid(grid: &PlanningGrid, path: &[Cell], start: Cell, goal: Cell) -> 
     path.first() == Some(&start)
         && path.last() == Some(&goal)
         && path.iter().all(|&c| grid.is_free(c) && seen.insert(c))
-        && path.windows(2).all(|w| adjacent(grid, w[0], w[1]))
+        && path.windows(2).all(|w| grid.adjacent(w[0], w[1]))
 }
 
 /// Energy penalty of one heading change between two 8-connected steps: the turn in 45 degree
@@ -191,7 +188,7 @@ pub fn turn_penalty(from: (i32, i32), to: (i32, i32)) -> f64 {
 /// The fitness terms of a cell path (4.2).
 pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell]) -> FitnessTerms {
     let res = grid.resolution();
-    let length_m = crate::astar::cell_path_length(path) * res;
+    let length_m = crate::search::astar::cell_path_length(path) * res;
     let safety = path
         .iter()
         .filter(|c| {
@@ -274,7 +271,7 @@ fn connect(
     let mut i = 0;
     while i + 1 < path.len() {
         let (a, b) = (path[i], path[i + 1]);
-        if adjacent(grid, a, b) {
+        if grid.adjacent(a, b) {
             i += 1;
             continue;
         }
@@ -331,7 +328,7 @@ fn connect(
 }
 
 impl Planner for GaPlanner {
-    fn name(&self) -> &'static str {
+    fn name(&self) -> PlannerName {
         self.variant.name()
     }
 
@@ -342,11 +339,55 @@ impl Planner for GaPlanner {
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
         let grid = problem.grid;
         let p = &self.params;
-        let (s, g) = (problem.start, problem.goal);
-        let median = self.variant == GaVariant::Imga;
-        let budget =
-            (p.insertion_budget_factor * (grid.width() + grid.height()) as f64) as usize + 8;
-        let mut stats = PlanStats::default();
+        let generations = Generations {
+            planner: self,
+            problem: *problem,
+            median: self.variant == GaVariant::Imga,
+            insertion_budget: (p.insertion_budget_factor * (grid.width() + grid.height()) as f64)
+                as usize
+                + 8,
+            scored: Vec::new(),
+            best: (f64::INFINITY, Vec::new()),
+            evaluations: 0,
+            failed_mutations: 0,
+        };
+        let budget = Budget {
+            iterations: p.generations,
+            patience: Some(p.patience),
+        };
+        drive(generations, budget, ctx)
+    }
+}
+
+/// One GA run: the population sorted by fitness (best first) and the best so far. The driver
+/// runs it.
+struct Generations<'a> {
+    planner: &'a GaPlanner,
+    problem: Problem<'a>,
+    /// Median insertion (IMGA) or random gap filling (plain GA).
+    median: bool,
+    /// Insertions allowed per path before an individual is discarded.
+    insertion_budget: usize,
+    scored: Vec<(f64, Vec<Cell>)>,
+    best: (f64, Vec<Cell>),
+    evaluations: u64,
+    failed_mutations: u64,
+}
+
+impl Generations<'_> {
+    fn score(&self, path: &[Cell]) -> f64 {
+        self.planner
+            .params
+            .fitness(&fitness_terms(self.problem.grid, path))
+    }
+}
+
+impl Population for Generations<'_> {
+    /// 4.1: the initial population, sorted by fitness.
+    fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError> {
+        let grid = self.problem.grid;
+        let p = &self.planner.params;
+        let (s, g) = (self.problem.start, self.problem.goal);
         let free: Vec<Cell> = {
             let info = grid.info();
             (0..info.cell_count())
@@ -354,7 +395,6 @@ impl Planner for GaPlanner {
                 .filter(|&c| grid.is_free(c) && c != s && c != g)
                 .collect()
         };
-        // 4.1: the initial population.
         let mut pop: Vec<Vec<Cell>> = Vec::with_capacity(p.population);
         let mut discarded = 0u64;
         for _ in 0..p.population * p.init_attempts {
@@ -365,7 +405,7 @@ impl Planner for GaPlanner {
                 Some(&r) => vec![s, r, g],
                 None => vec![s, g],
             };
-            match connect(grid, genes, median, budget, ctx.rng) {
+            match connect(grid, genes, self.median, self.insertion_budget, ctx.rng) {
                 Some(path) if !pop.contains(&path) => pop.push(path),
                 Some(_) => {}
                 None => discarded += 1,
@@ -379,90 +419,84 @@ impl Planner for GaPlanner {
                 "no initial path could be completed ({discarded} discarded)"
             )));
         }
-        let score = |path: &Vec<Cell>| p.fitness(&fitness_terms(grid, path));
-        let mut scored: Vec<(f64, Vec<Cell>)> = pop.into_iter().map(|c| (score(&c), c)).collect();
-        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut best = scored[0].clone();
-        let mut stall = 0;
-        for gen in 0..p.generations {
-            if (ctx.interrupt)().is_some() {
-                stats.cut_short = true;
-                break;
+        self.scored = pop.into_iter().map(|c| (self.score(&c), c)).collect();
+        self.scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        self.best = self.scored[0].clone();
+        Ok(self.best.0)
+    }
+
+    /// One generation: selection (layered or roulette), crossover, mutation, re-scoring.
+    fn step(&mut self, _t: usize, ctx: &mut PlanContext<'_>) -> f64 {
+        let grid = self.problem.grid;
+        let p = &self.planner.params;
+        let n = self.scored.len();
+        let mut next: Vec<Vec<Cell>> = match self.planner.variant {
+            GaVariant::Imga => layered_selection(n)
+                .into_iter()
+                .map(|i| self.scored[i].1.clone())
+                .collect(),
+            GaVariant::Ga => {
+                let weights: Vec<f64> =
+                    self.scored.iter().map(|(f, _)| 1.0 / f.max(1e-9)).collect();
+                let total: f64 = weights.iter().sum();
+                (0..n)
+                    .map(|_| {
+                        let mut r = ctx.rng.random::<f64>() * total;
+                        let k = weights.iter().position(|&w| {
+                            r -= w;
+                            r < 0.0
+                        });
+                        self.scored[k.unwrap_or(n - 1)].1.clone()
+                    })
+                    .collect()
             }
-            stats.iterations += 1;
-            let n = scored.len();
-            // Selection.
-            let mut next: Vec<Vec<Cell>> = match self.variant {
-                GaVariant::Imga => layered_selection(n)
-                    .into_iter()
-                    .map(|i| scored[i].1.clone())
-                    .collect(),
-                GaVariant::Ga => {
-                    let weights: Vec<f64> = scored.iter().map(|(f, _)| 1.0 / f.max(1e-9)).collect();
-                    let total: f64 = weights.iter().sum();
-                    (0..n)
-                        .map(|_| {
-                            let mut r = ctx.rng.random::<f64>() * total;
-                            let k = weights.iter().position(|&w| {
-                                r -= w;
-                                r < 0.0
-                            });
-                            scored[k.unwrap_or(n - 1)].1.clone()
-                        })
-                        .collect()
+        };
+        // Crossover at a shared cell.
+        next.shuffle(ctx.rng);
+        for pair in next.chunks_exact_mut(2) {
+            if ctx.rng.random::<f64>() < p.crossover_rate {
+                if let [a, b] = pair {
+                    crossover(a, b, ctx.rng);
                 }
-            };
-            // Crossover at a shared cell.
-            next.shuffle(ctx.rng);
-            for pair in next.chunks_exact_mut(2) {
-                if ctx.rng.random::<f64>() < p.crossover_rate {
-                    if let [a, b] = pair {
-                        crossover(a, b, ctx.rng);
-                    }
-                }
-            }
-            // Mutation.
-            for child in next.iter_mut() {
-                if ctx.rng.random::<f64>() < p.mutation_rate {
-                    if let Some(m) = mutate(grid, child, median, budget, ctx.rng) {
-                        *child = m;
-                    } else {
-                        stats
-                            .counters
-                            .entry("failed_mutations".into())
-                            .and_modify(|v| *v += 1.0)
-                            .or_insert(1.0);
-                    }
-                }
-            }
-            scored = next.into_iter().map(|c| (score(&c), c)).collect();
-            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-            stats.evaluations += scored.len() as u64;
-            if scored[0].0 < best.0 - 1e-12 {
-                best = scored[0].clone();
-                stats.best_iteration = Some(gen as u64 + 1);
-                stall = 0;
-            } else {
-                stall += 1;
-            }
-            stats.convergence.push(best.0);
-            if stall >= p.stall_generations {
-                stats.notes.push(format!(
-                    "stopped: no better path for {} generations",
-                    p.stall_generations
-                ));
-                break;
             }
         }
-        let terms = fitness_terms(grid, &best.1);
-        stats.counters.insert("fitness".into(), best.0);
+        // Mutation.
+        for child in next.iter_mut() {
+            if ctx.rng.random::<f64>() < p.mutation_rate {
+                match mutate(grid, child, self.median, self.insertion_budget, ctx.rng) {
+                    Some(m) => *child = m,
+                    None => self.failed_mutations += 1,
+                }
+            }
+        }
+        self.scored = next.into_iter().map(|c| (self.score(&c), c)).collect();
+        self.scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        self.evaluations += self.scored.len() as u64;
+        if self.scored[0].0 < self.best.0 - 1e-12 {
+            self.best = self.scored[0].clone();
+        }
+        self.best.0
+    }
+
+    fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+
+    fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+        let terms = fitness_terms(self.problem.grid, &self.best.1);
+        if self.failed_mutations > 0 {
+            stats
+                .counters
+                .insert("failed_mutations".into(), self.failed_mutations as f64);
+        }
+        stats.counters.insert("fitness".into(), self.best.0);
         stats
             .counters
             .insert("fitness_length_m".into(), terms.length_m);
         stats.counters.insert("fitness_safety".into(), terms.safety);
         stats.counters.insert("fitness_energy".into(), terms.energy);
         Ok(RawPlan {
-            waypoints: best.1.iter().map(|c| c.center()).collect(),
+            waypoints: self.best.1.iter().map(|c| c.center()).collect(),
             stats,
             pareto: Vec::new(),
         })
@@ -629,7 +663,7 @@ mod tests {
             goal: Cell::new(9, 4).center(),
             tolerance: 0.0,
         };
-        for variant in GaVariant::ALL {
+        for variant in [GaVariant::Imga, GaVariant::Ga] {
             let planner = GaPlanner {
                 variant,
                 params: GaParams::default(),

@@ -7,8 +7,8 @@
 //! segment is a line-of-sight segment, so it never adds a collision.
 
 use crate::geometry::Point2;
-use crate::inflation::PlanningGrid;
-use crate::raycast::line_of_sight;
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::raycast::line_of_sight;
 
 /// Removes every node whose kept predecessor sees its successor. The first and last points stay.
 pub fn delete_redundant(grid: &PlanningGrid, points: &[Point2]) -> Vec<Point2> {
@@ -33,8 +33,8 @@ mod tests {
     use crate::geometry::Pose2;
     use crate::grid::MapInfo;
 
-    use crate::astar::astar_cells;
     use crate::planner::PlanContext;
+    use crate::search::astar::astar_cells;
     use crate::test_support::{random_grid, rng};
     use proptest::prelude::*;
 
@@ -53,8 +53,8 @@ mod tests {
             let out = delete_redundant(&grid, &path);
             prop_assert_eq!(out.first(), path.first());
             prop_assert_eq!(out.last(), path.last());
-            prop_assert!(crate::metrics::path_length(&out) <= crate::metrics::path_length(&path) + 1e-9);
-            prop_assert!(crate::raycast::path_is_free(&grid, &out));
+            prop_assert!(crate::grid::metrics::path_length(&out) <= crate::grid::metrics::path_length(&path) + 1e-9);
+            prop_assert!(crate::grid::raycast::path_is_free(&grid, &out));
         }
     }
 
@@ -85,7 +85,9 @@ mod tests {
         assert_eq!(out.first(), path.first());
         assert_eq!(out.last(), path.last());
         assert!(out.len() < path.len());
-        assert!(crate::raycast::path_is_free(&grid, &out));
-        assert!(crate::metrics::path_length(&out) <= crate::metrics::path_length(&path));
+        assert!(crate::grid::raycast::path_is_free(&grid, &out));
+        assert!(
+            crate::grid::metrics::path_length(&out) <= crate::grid::metrics::path_length(&path)
+        );
     }
 }

@@ -8,8 +8,10 @@
 //! and the swarm planners call this tens of thousands of times over a run.
 
 use crate::geometry::{Cell, NEIGHBOURS_8};
-use crate::inflation::PlanningGrid;
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::moves::{allowed, step_length};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::registry::PlannerName;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -21,8 +23,8 @@ const POLL_EVERY: u64 = 4096;
 pub struct AStar;
 
 impl Planner for AStar {
-    fn name(&self) -> &'static str {
-        "astar"
+    fn name(&self) -> PlannerName {
+        PlannerName::Astar
     }
 
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
@@ -82,25 +84,11 @@ impl PartialOrd for Open {
     }
 }
 
-/// The 8-connected successors of a cell with their step costs, honouring the no-corner-cutting
-/// rule. The reference statement of the move rule (A* inlines it on the padded mask); the tests'
-/// oracle uses it.
+/// The 8-connected successors of a cell with their step costs, by the one move rule of
+/// [`crate::grid::moves`] (A* applies the same rule to its padded mask); the tests' oracle uses it.
 pub fn successors(grid: &PlanningGrid, c: Cell) -> impl Iterator<Item = (Cell, f64)> + '_ {
-    NEIGHBOURS_8.iter().filter_map(move |&(dx, dy)| {
-        let n = c.offset(dx, dy);
-        if !grid.is_free(n) {
-            return None;
-        }
-        if dx != 0 && dy != 0 {
-            if grid.is_free(c.offset(dx, 0)) && grid.is_free(c.offset(0, dy)) {
-                Some((n, std::f64::consts::SQRT_2))
-            } else {
-                None
-            }
-        } else {
-            Some((n, 1.0))
-        }
-    })
+    grid.moves(c)
+        .map(move |(_, n)| (n, step_length(n.x - c.x, n.y - c.y)))
 }
 
 /// A* from `start` to `goal` (both free). Returns the cell path and its statistics.
@@ -149,22 +137,12 @@ pub fn astar_cells(
         let c = unpadded(i);
         for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
             let j = (i as isize + offsets[k]) as usize;
-            if !free[j] {
+            if !allowed(dx, dy, |x, y| {
+                free[(i as isize + x as isize + y as isize * s) as usize]
+            }) {
                 continue;
             }
-            let diagonal = dx != 0 && dy != 0;
-            if diagonal
-                && !(free[(i as isize + dx as isize) as usize]
-                    && free[(i as isize + dy as isize * s) as usize])
-            {
-                continue;
-            }
-            let ng = gc
-                + if diagonal {
-                    std::f64::consts::SQRT_2
-                } else {
-                    1.0
-                };
+            let ng = gc + step_length(dx, dy);
             if ng < g[j] {
                 stats.evaluations += 1;
                 g[j] = ng;
@@ -219,7 +197,7 @@ mod tests {
                         prop_assert!(successors(&grid, w[0]).any(|(n, _)| n == w[1]));
                     }
                     let pts: Vec<_> = cells.iter().map(|c| c.center()).collect();
-                    prop_assert!(crate::raycast::path_is_free(&grid, &pts));
+                    prop_assert!(crate::grid::raycast::path_is_free(&grid, &pts));
                 }
                 (o, u) => prop_assert!(false, "oracle {:?} vs ours {:?}", o.map(|x| x.1), u.map(|x| x.0.len())),
             }
@@ -236,10 +214,7 @@ mod tests {
             &rows.iter().map(String::as_str).collect::<Vec<_>>(),
         );
         let mut r = rng(0);
-        let ctx = PlanContext {
-            rng: &mut r,
-            interrupt: &|| Some(crate::planner::Interrupt::Deadline),
-        };
+        let ctx = PlanContext::new(&mut r, &|| Some(crate::planner::Interrupt::Deadline));
         let result = astar_cells(&grid, Cell::new(0, 0), Cell::new(199, 199), &ctx);
         assert_eq!(result.map(|_| ()), Err(PlanError::TimedOut));
         let ctx = PlanContext::never_interrupted(&mut r);

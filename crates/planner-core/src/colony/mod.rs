@@ -1,5 +1,7 @@
 //! The substation paper's improved ant colony guided by the enhanced potential field (EAPF-IACO),
-//! with its baselines, on one colony driver (`eapf-iaco-substation.txt`, eq. 12–22):
+//! with its baselines, on the population driver (Wang et al., "Robot Path Planning Method
+//! Combining Enhanced APF and Improved ACO Algorithm for Power Emergency Maintenance", eq. 12–22;
+//! `docs/papers.md`):
 //!
 //! | planner | heuristic eta | initial pheromone | global update |
 //! |---|---|---|---|
@@ -28,12 +30,15 @@
 //! - the first good path is the EAPF path (escapes included), or A*'s when the EAPF cannot reach
 //!   the goal (the swarms' rule; the result says so); it seeds the best-so-far ant.
 
-use crate::astar::{astar_cells, cell_path_length};
-use crate::config::{check, check_counts, ParamError, Range};
+use crate::driver::{drive, Budget, Population};
+use crate::field::{ApfParams, PotentialField};
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
-use crate::inflation::PlanningGrid;
+use crate::grid::{MapInfo, PlanningGrid};
+use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::potential::{descend, ApfParams, PotentialField};
+use crate::registry::PlannerName;
+use crate::search::astar::cell_path_length;
+use crate::seed::field_or_astar;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -49,7 +54,7 @@ pub struct ColonyParams {
     pub patience: usize,
     /// alpha of eq. 13: pheromone weight. Default 1.
     pub alpha: f64,
-    /// beta of eq. 13: heuristic weight. Default 7 (ALGORITHMS.md).
+    /// beta of eq. 13: heuristic weight. Default 7 (`docs/papers.md`).
     pub beta: f64,
     /// rho of eq. 19–22: evaporation. Default 0.6 (paper).
     pub rho: f64,
@@ -134,17 +139,11 @@ pub enum ColonyVariant {
 }
 
 impl ColonyVariant {
-    pub const ALL: [ColonyVariant; 3] = [
-        ColonyVariant::EapfIaco,
-        ColonyVariant::Aco,
-        ColonyVariant::AcoApf,
-    ];
-
-    pub fn name(self) -> &'static str {
+    pub fn name(self) -> PlannerName {
         match self {
-            ColonyVariant::EapfIaco => "eapf_iaco",
-            ColonyVariant::Aco => "aco",
-            ColonyVariant::AcoApf => "aco_apf",
+            ColonyVariant::EapfIaco => PlannerName::EapfIaco,
+            ColonyVariant::Aco => PlannerName::Aco,
+            ColonyVariant::AcoApf => PlannerName::AcoApf,
         }
     }
 }
@@ -222,7 +221,7 @@ pub fn initial_pheromone(
 }
 
 impl Planner for ColonyPlanner {
-    fn name(&self) -> &'static str {
+    fn name(&self) -> PlannerName {
         self.variant.name()
     }
 
@@ -231,33 +230,147 @@ impl Planner for ColonyPlanner {
     }
 
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
-        let grid = problem.grid;
-        let p = &self.params;
-        let (w, h) = (grid.width(), grid.height());
-        let n = w * h;
-        let info = *grid.info();
-        let index = |c: Cell| info.index(c);
-        let mut stats = PlanStats::default();
+        let budget = Budget {
+            iterations: self.params.iterations,
+            patience: Some(self.params.patience),
+        };
+        drive(Colony::new(self, *problem), budget, ctx)
+    }
+}
 
-        // The field of the heuristic: EAPF (no eq. 9 factor) or the patrol car paper's APF.
-        let field_params = match self.variant {
+/// One colony run: the heuristic and pheromone of every cell, the best-so-far ant, and the
+/// buffers the ants reuse. The driver runs it.
+struct Colony<'a> {
+    planner: &'a ColonyPlanner,
+    problem: Problem<'a>,
+    info: MapInfo,
+    /// `eta^beta` per cell and move (eq. 14-16, or 12): the heuristic does not change.
+    eta_beta: Vec<f64>,
+    /// The initial pheromone (eq. 17-18, or uniform), which eq. 19 restores a share of.
+    tau0: Vec<f64>,
+    tau: Vec<f64>,
+    /// The pheromone floor, so that eq. 13 stays defined.
+    floor: f64,
+    /// The best-so-far ant's cells and length (cells).
+    best: Option<(Vec<Cell>, f64)>,
+    /// An ant gives up after this many steps.
+    steps: usize,
+    /// `visited[i] == stamp` marks the cells the current ant has been on.
+    visited: Vec<u32>,
+    stamp: u32,
+    dropped: u64,
+    ants_run: u64,
+    walk: Vec<Cell>,
+    candidates: Vec<(Cell, f64)>,
+}
+
+impl<'a> Colony<'a> {
+    fn new(planner: &'a ColonyPlanner, problem: Problem<'a>) -> Self {
+        let grid = problem.grid;
+        let p = &planner.params;
+        let steps = (p.step_budget_factor * (grid.width() + grid.height()) as f64) as usize;
+        Self {
+            planner,
+            problem,
+            info: *grid.info(),
+            eta_beta: Vec::new(),
+            tau0: Vec::new(),
+            tau: Vec::new(),
+            floor: p.tau_min * p.initial_pheromone,
+            best: None,
+            steps,
+            visited: vec![0u32; grid.width() * grid.height()],
+            stamp: 0,
+            dropped: 0,
+            ants_run: 0,
+            walk: Vec::with_capacity(steps),
+            candidates: Vec::with_capacity(8),
+        }
+    }
+
+    /// The field of the heuristic: EAPF (no eq. 9 factor) or the patrol car paper's APF.
+    fn field_params(&self) -> ApfParams {
+        match self.planner.variant {
             ColonyVariant::EapfIaco => ApfParams {
                 goal_distance_factor: false,
-                ..self.apf.clone()
+                ..self.planner.apf.clone()
             },
-            _ => self.apf.clone(),
-        };
-        let goal_c = problem.goal.center();
-        // Eq. 14-16 (or 12), precomputed per cell and move: the heuristic does not change.
+            _ => self.planner.apf.clone(),
+        }
+    }
+
+    /// The best length so far in metres (the convergence value), infinite before any.
+    fn best_value(&self) -> f64 {
+        self.best
+            .as_ref()
+            .map_or(f64::INFINITY, |b| b.1 * self.info.resolution)
+    }
+
+    /// One ant's walk from the start by eq. 13's roulette with eq. 19's local update; the walk is
+    /// left in `self.walk`. Returns whether it reached the goal.
+    fn walk_one_ant(&mut self, ctx: &mut PlanContext<'_>) -> bool {
+        let p = &self.planner.params;
+        let (grid, info) = (self.problem.grid, self.info);
+        self.stamp = self.stamp.wrapping_add(1);
+        self.walk.clear();
+        let mut cur = self.problem.start;
+        self.walk.push(cur);
+        self.visited[info.index(cur)] = self.stamp;
+        while self.walk.len() <= self.steps {
+            if cur == self.problem.goal {
+                return true;
+            }
+            self.candidates.clear();
+            for (k, nb) in grid.moves(cur) {
+                if self.visited[info.index(nb)] != self.stamp {
+                    // Eq. 13's weight: tau^alpha * eta^beta.
+                    let weight = self.tau[info.index(nb)].max(self.floor).powf(p.alpha)
+                        * self.eta_beta[info.index(cur) * 8 + k];
+                    self.candidates.push((nb, weight));
+                }
+            }
+            let total: f64 = self.candidates.iter().map(|c| c.1).sum();
+            if self.candidates.is_empty() || total.is_nan() || total <= 0.0 {
+                return false; // boxed in: dropped
+            }
+            let mut r = ctx.rng.random::<f64>() * total;
+            let mut next = self.candidates[self.candidates.len() - 1].0;
+            for &(c, wgt) in &self.candidates {
+                if r < wgt {
+                    next = c;
+                    break;
+                }
+                r -= wgt;
+            }
+            // Eq. 19: local update of the cell moved into.
+            let j = info.index(next);
+            self.tau[j] = ((1.0 - p.rho) * self.tau[j] + p.omega * self.tau0[j]).max(self.floor);
+            self.visited[j] = self.stamp;
+            self.walk.push(next);
+            cur = next;
+        }
+        false
+    }
+}
+
+impl Population for Colony<'_> {
+    /// The heuristic and the initial pheromone; for `eapf_iaco` the EAPF path as the first good
+    /// path (A*'s when the EAPF cannot reach the goal, the swarms' rule; the result says so).
+    fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError> {
+        let (grid, info) = (self.problem.grid, self.info);
+        let p = &self.planner.params;
+        let variant = self.planner.variant;
+        let field_params = self.field_params();
+        let goal_c = self.problem.goal.center();
         let field = PotentialField::new(grid, &field_params, goal_c);
-        let mut eta_beta = vec![0f64; n * 8];
-        for y in 0..h as i32 {
-            for x in 0..w as i32 {
+        self.eta_beta = vec![0f64; info.cell_count() * 8];
+        for y in 0..grid.height() as i32 {
+            for x in 0..grid.width() as i32 {
                 let c = Cell::new(x, y);
                 if !grid.is_free(c) {
                     continue;
                 }
-                let force = if self.variant == ColonyVariant::Aco {
+                let force = if variant == ColonyVariant::Aco {
                     Vector2::zeros()
                 } else {
                     field.force(c)
@@ -265,7 +378,7 @@ impl Planner for ColonyPlanner {
                 for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
                     let dir = Vector2::new(dx as f64, dy as f64);
                     let next = c.offset(dx, dy);
-                    let eta = match self.variant {
+                    let eta = match variant {
                         ColonyVariant::Aco => 1.0 / dir.norm(),
                         ColonyVariant::AcoApf => eta_force(force, dir, p.delta) / dir.norm(),
                         ColonyVariant::EapfIaco => {
@@ -273,167 +386,92 @@ impl Planner for ColonyPlanner {
                             (1.0 - p.phi) / p.phi * eta_force(force, dir, p.delta) / d_je
                         }
                     };
-                    eta_beta[index(c) * 8 + k] = eta.powf(p.beta);
+                    self.eta_beta[info.index(c) * 8 + k] = eta.powf(p.beta);
                 }
             }
         }
-
-        let tau0 = initial_pheromone(grid, self.variant, problem.start.center(), goal_c, p);
-        let t = p.initial_pheromone;
-        let mut tau = tau0.clone();
-        let floor = p.tau_min * t;
-
-        // The first good path: the EAPF path (eapf_iaco only).
-        let mut best: Option<(Vec<Cell>, f64)> = None;
-        if self.variant == ColonyVariant::EapfIaco {
-            let cells = match descend(grid, &field_params, problem.start, problem.goal) {
-                Ok(path) => {
-                    stats
-                        .notes
-                        .push(format!("first good path: EAPF ({} escapes)", path.escapes));
-                    path.cells
-                }
-                Err(f) => {
-                    // As for the swarms' seed: A* stands in when the field cannot reach the goal.
-                    stats.notes.push(format!(
-                        "first good path: A*, because the EAPF failed ({} after {} steps)",
-                        f.reason, f.steps
-                    ));
-                    stats.counters.insert("apf_fallback".into(), 1.0);
-                    astar_cells(grid, problem.start, problem.goal, ctx)?.0
-                }
-            };
+        self.tau0 = initial_pheromone(grid, variant, self.problem.start.center(), goal_c, p);
+        self.tau = self.tau0.clone();
+        if variant == ColonyVariant::EapfIaco {
+            let cells =
+                field_or_astar(&self.problem, &field_params, ctx, stats, "first good path")?;
             let len = cell_path_length(&cells);
-            best = Some((cells, len));
+            self.best = Some((cells, len));
         }
+        Ok(self.best_value())
+    }
 
-        let budget = (p.step_budget_factor * (w + h) as f64) as usize;
-        let mut visited = vec![0u32; n];
-        let mut stamp = 0u32;
-        let (mut dropped, mut since_improvement) = (0u64, 0usize);
-        let mut walk = Vec::with_capacity(budget);
-        let mut cand: Vec<(Cell, f64)> = Vec::with_capacity(8);
-        for it in 0..p.iterations {
-            if (ctx.interrupt)().is_some() {
-                stats.cut_short = true;
-                break;
-            }
-            stats.iterations += 1;
-            let mut improved = false;
-            let mut finished: Vec<(Vec<Cell>, f64)> = Vec::new();
-            for _ in 0..p.ants {
-                stamp = stamp.wrapping_add(1);
-                walk.clear();
-                let mut cur = problem.start;
-                walk.push(cur);
-                visited[index(cur)] = stamp;
-                let mut reached = false;
-                while walk.len() <= budget {
-                    if cur == problem.goal {
-                        reached = true;
-                        break;
-                    }
-                    cand.clear();
-                    for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
-                        let nb = cur.offset(dx, dy);
-                        let ok = grid.is_free(nb)
-                            && visited[index(nb)] != stamp
-                            && (dx == 0
-                                || dy == 0
-                                || (grid.is_free(cur.offset(dx, 0))
-                                    && grid.is_free(cur.offset(0, dy))));
-                        if ok {
-                            // Eq. 13's weight: tau^alpha * eta^beta.
-                            let weight = tau[index(nb)].max(floor).powf(p.alpha)
-                                * eta_beta[index(cur) * 8 + k];
-                            cand.push((nb, weight));
-                        }
-                    }
-                    let total: f64 = cand.iter().map(|c| c.1).sum();
-                    if cand.is_empty() || total.is_nan() || total <= 0.0 {
-                        break; // boxed in: dropped
-                    }
-                    let mut r = ctx.rng.random::<f64>() * total;
-                    let mut next = cand[cand.len() - 1].0;
-                    for &(c, wgt) in &cand {
-                        if r < wgt {
-                            next = c;
-                            break;
-                        }
-                        r -= wgt;
-                    }
-                    // Eq. 19: local update of the cell moved into.
-                    let j = index(next);
-                    tau[j] = ((1.0 - p.rho) * tau[j] + p.omega * tau0[j]).max(floor);
-                    visited[j] = stamp;
-                    walk.push(next);
-                    cur = next;
+    /// Every ant walks (eq. 13, 19), then the global update: eq. 20-22 on the best-so-far ant
+    /// for `eapf_iaco`, the ant system's deposit by every finished ant for the baselines.
+    fn step(&mut self, t: usize, ctx: &mut PlanContext<'_>) -> f64 {
+        let p = &self.planner.params;
+        let variant = self.planner.variant;
+        let info = self.info;
+        let mut finished: Vec<(Vec<Cell>, f64)> = Vec::new();
+        for _ in 0..p.ants {
+            let reached = self.walk_one_ant(ctx);
+            self.ants_run += 1;
+            if reached {
+                let len = cell_path_length(&self.walk);
+                if self.best.as_ref().is_none_or(|b| len < b.1 - 1e-9) {
+                    self.best = Some((self.walk.clone(), len));
                 }
-                stats.evaluations += 1;
-                if reached {
-                    let len = cell_path_length(&walk);
-                    if best.as_ref().is_none_or(|b| len < b.1 - 1e-9) {
-                        best = Some((walk.clone(), len));
-                        improved = true;
-                        stats.best_iteration = Some(it as u64 + 1);
-                    }
-                    if self.variant != ColonyVariant::EapfIaco {
-                        finished.push((walk.clone(), len));
-                    }
-                } else {
-                    dropped += 1;
+                if variant != ColonyVariant::EapfIaco {
+                    finished.push((self.walk.clone(), len));
                 }
-            }
-            // Global update.
-            match self.variant {
-                ColonyVariant::EapfIaco => {
-                    // Eq. 20-22 on the best-so-far ant.
-                    let coeff = adjustment_coefficient(it, p.iterations);
-                    for v in tau.iter_mut() {
-                        *v *= 1.0 - p.rho;
-                    }
-                    if let Some((cells, len)) = &best {
-                        for c in cells {
-                            tau[index(*c)] += 1.0 / len;
-                        }
-                    }
-                    for (v, &t0) in tau.iter_mut().zip(&tau0) {
-                        if t0 > 0.0 {
-                            *v = (*v * coeff).max(floor);
-                        }
-                    }
-                }
-                _ => {
-                    // The ant system: evaporation, then every finished ant deposits 1 / L_k.
-                    for v in tau.iter_mut() {
-                        *v = (*v * (1.0 - p.rho)).max(floor);
-                    }
-                    for (cells, len) in &finished {
-                        for c in cells {
-                            tau[index(*c)] += 1.0 / len;
-                        }
-                    }
-                }
-            }
-            stats.convergence.push(
-                best.as_ref()
-                    .map_or(f64::INFINITY, |b| b.1 * info.resolution),
-            );
-            since_improvement = if improved { 0 } else { since_improvement + 1 };
-            if since_improvement >= p.patience {
-                stats.notes.push(format!(
-                    "converged: no shorter path for {} iterations",
-                    p.patience
-                ));
-                break;
+            } else {
+                self.dropped += 1;
             }
         }
-        stats.counters.insert("dropped_ants".into(), dropped as f64);
-        let Some((cells, _)) = best else {
+        match variant {
+            ColonyVariant::EapfIaco => {
+                // Eq. 20-22 on the best-so-far ant.
+                let coeff = adjustment_coefficient(t, p.iterations);
+                for v in self.tau.iter_mut() {
+                    *v *= 1.0 - p.rho;
+                }
+                if let Some((cells, len)) = &self.best {
+                    for c in cells {
+                        self.tau[info.index(*c)] += 1.0 / len;
+                    }
+                }
+                for (v, &t0) in self.tau.iter_mut().zip(&self.tau0) {
+                    if t0 > 0.0 {
+                        *v = (*v * coeff).max(self.floor);
+                    }
+                }
+            }
+            _ => {
+                // The ant system: evaporation, then every finished ant deposits 1 / L_k.
+                for v in self.tau.iter_mut() {
+                    *v = (*v * (1.0 - p.rho)).max(self.floor);
+                }
+                for (cells, len) in &finished {
+                    for c in cells {
+                        self.tau[info.index(*c)] += 1.0 / len;
+                    }
+                }
+            }
+        }
+        self.best_value()
+    }
+
+    fn evaluations(&self) -> u64 {
+        self.ants_run
+    }
+
+    fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+        stats
+            .counters
+            .insert("dropped_ants".into(), self.dropped as f64);
+        let Some((cells, _)) = self.best else {
             return Err(if stats.cut_short {
                 PlanError::TimedOut
             } else {
-                PlanError::NoValidPath(format!("no ant reached the goal ({dropped} dropped)"))
+                PlanError::NoValidPath(format!(
+                    "no ant reached the goal ({} dropped)",
+                    self.dropped
+                ))
             });
         };
         Ok(RawPlan {
@@ -535,7 +573,11 @@ mod tests {
             goal: Point2::new(9.5, 4.5),
             tolerance: 0.0,
         };
-        for variant in ColonyVariant::ALL {
+        for variant in [
+            ColonyVariant::EapfIaco,
+            ColonyVariant::Aco,
+            ColonyVariant::AcoApf,
+        ] {
             let planner = ColonyPlanner {
                 variant,
                 params: ColonyParams {

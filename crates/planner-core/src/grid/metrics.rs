@@ -2,8 +2,8 @@
 //! (patrol car paper eq. 17), number of turns, minimum clearance, and feasibility.
 
 use crate::geometry::{wrap_angle, Cell, Point2};
-use crate::inflation::PlanningGrid;
-use crate::raycast::{path_is_free, supercover};
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::raycast::{path_is_free, supercover};
 use serde::{Deserialize, Serialize};
 
 /// Heading changes smaller than this (rad) are not counted as turns: they are rounding noise.

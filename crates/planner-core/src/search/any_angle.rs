@@ -23,13 +23,13 @@
 /// How far (cells) a corner vertex is moved off the obstacle corner into free space.
 pub const NUDGE: f64 = 1e-6;
 
-use crate::astar::astar_cells;
 use crate::geometry::{Cell, Point2};
-use crate::inflation::PlanningGrid;
-use crate::metrics::path_length;
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::metrics::path_length;
+use crate::grid::raycast::line_of_sight;
+use crate::grid::smoothing::delete_redundant;
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::raycast::line_of_sight;
-use crate::smoothing::delete_redundant;
+use crate::search::astar::astar_cells;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -38,8 +38,8 @@ use std::collections::BinaryHeap;
 pub struct AnyAngle;
 
 impl Planner for AnyAngle {
-    fn name(&self) -> &'static str {
-        "any_angle"
+    fn name(&self) -> crate::registry::PlannerName {
+        crate::registry::PlannerName::AnyAngle
     }
 
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
@@ -271,7 +271,7 @@ mod tests {
             let q = Query { start: start.center(), goal: goal.center(), tolerance: 0.0 };
             let mut r = rng(seed);
             let any = solve(&AnyAngle, &grid, &q, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut r));
-            let astar = solve(&crate::astar::AStar, &grid, &q, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut r));
+            let astar = solve(&crate::search::astar::AStar, &grid, &q, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut r));
             match (brute_force(&grid, start.center(), goal.center()), any, astar) {
                 (None, Err(PlanError::NoValidPath(_)), Err(PlanError::NoValidPath(_))) => {}
                 (Some(best), Ok(any), Ok(astar)) => {

@@ -3,7 +3,7 @@
 //! Cells hold `-1` (unknown) or an occupancy probability `0..=100`, row-major from the cell at the
 //! origin (bottom-left in ROS's convention), exactly like `nav_msgs/OccupancyGrid.data`. A cell is
 //! an obstacle at or above `occupied_threshold`; unknown is an obstacle unless `allow_unknown`
-//! (both live in [`crate::inflation::InflationConfig`], which turns this raw map into the planning
+//! (both live in [`crate::grid::inflation::InflationConfig`], which turns this raw map into the planning
 //! grid).
 
 use crate::geometry::{Cell, Point2, Pose2};

@@ -9,9 +9,9 @@
 //! Distances are measured between cell centres, as Nav2's costmap inflation does: a cell is
 //! blocked when an obstacle cell's centre lies within `robot_radius + safety_margin` of its centre.
 
-use crate::config::{check, ParamError, Range};
 use crate::geometry::Cell;
-use crate::grid::{GridMap, MapInfo, UNKNOWN};
+use crate::grid::map::{GridMap, MapInfo, UNKNOWN};
+use crate::params::{check, ParamError, Range};
 use serde::{Deserialize, Serialize};
 
 /// How the raw map becomes the planning grid.

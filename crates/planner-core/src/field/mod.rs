@@ -1,6 +1,9 @@
-//! The artificial potential field (patrol car paper eq. 1–9) and its local-minimum escape by a
-//! virtual traction point (substation paper eq. 3–11). Planner `apf` uses it alone; the swarms use
-//! its path as their first global best; the ant colony (issue 6) reuses the field.
+//! The artificial potential field (the patrol car paper, Zhao et al., IEEE Access 2020, eq. 1–9)
+//! and its local-minimum escape by a virtual traction point (the substation paper, Wang et al.,
+//! "Robot Path Planning Method Combining Enhanced APF and Improved ACO Algorithm for Power
+//! Emergency Maintenance", eq. 3–11; both in `docs/papers.md`). Planners `apf` and `eapf` use it
+//! alone; the swarms and the improved colony start from its path (see [`crate::seed`]); the
+//! colonies' heuristic reuses the field.
 //!
 //! Potential of a cell at distance `d_g` (m) from the goal and `rho` (m, from the distance
 //! transform) from the nearest obstacle:
@@ -18,15 +21,18 @@
 //! is clear; the last blocked ray's hit point is "the obstacle at the outermost end of the U".
 //! Around it a circle of radius `r` gives a tangent point (eq. 3–5) and a virtual traction point
 //! `d` beyond it along the robot-tangent line (the paper's text; its eq. 6–8 are garbled in the
-//! source and contradict the text, see ALGORITHMS.md). The path then descends a field whose
+//! source and contradict the text, see `docs/papers.md`). The path then descends a field whose
 //! attraction pulls towards the traction point with a gain that grows exponentially with the steps
 //! spent escaping (eq. 10's speed-up term `iota^n`, switched on by the stall, eq. 11) until it
 //! reaches the traction point and the goal's attraction takes over again. Escapes are bounded by a
 //! step budget; when it runs out the caller falls back to A* and says so.
 
-use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
-use crate::inflation::PlanningGrid;
-use crate::raycast::line_of_sight;
+use crate::geometry::{Cell, Point2, Vector2};
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::raycast::line_of_sight;
+use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::registry::PlannerName;
+use crate::seed::field_or_astar;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the field and of its escape. Distances in metres.
@@ -40,8 +46,10 @@ pub struct ApfParams {
     pub repulsive_gain: f64,
     /// rho0 of eq. 1: distance (m) within which obstacles repel. Default 1.0.
     pub influence_distance: f64,
-    /// R of eq. 9: the chassis radius (m). Default 0.25.
-    pub chassis_radius: f64,
+    /// R of eq. 9: the chassis radius (m). Unset: the costmap's `robot_radius` (see
+    /// [`crate::config::PlannerConfig::field`]), so the robot has one radius; 0.25 where no
+    /// costmap is at hand.
+    pub chassis_radius: Option<f64>,
     /// Stall detection: the window (steps) over which the distance moved is measured. Default 8.
     pub stall_window: usize,
     /// Stall detection: the path is stalled when it moved less than this (m) over the window.
@@ -69,7 +77,7 @@ impl Default for ApfParams {
             attractive_gain: 1.0,
             repulsive_gain: 4.0,
             influence_distance: 1.0,
-            chassis_radius: 0.25,
+            chassis_radius: None,
             stall_window: 8,
             stall_distance: 0.3,
             traction_radius: 1.0,
@@ -83,14 +91,20 @@ impl Default for ApfParams {
 }
 
 impl ApfParams {
-    pub fn validate(&self) -> Result<(), crate::config::ParamError> {
-        use crate::config::{check, check_counts, Range};
+    /// R of eq. 9 (m): the set chassis radius, or the default robot radius.
+    pub fn radius(&self) -> f64 {
+        self.chassis_radius
+            .unwrap_or_else(crate::grid::inflation::default_robot_radius)
+    }
+
+    pub fn validate(&self) -> Result<(), crate::params::ParamError> {
+        use crate::params::{check, check_counts, Range};
         check(
             Range::Positive,
             &[
                 ("apf.attractive_gain", self.attractive_gain),
                 ("apf.influence_distance", self.influence_distance),
-                ("apf.chassis_radius", self.chassis_radius),
+                ("apf.chassis_radius", self.radius()),
                 ("apf.traction_radius", self.traction_radius),
                 ("apf.traction_distance", self.traction_distance),
                 ("apf.sweep_step_deg", self.sweep_step_deg),
@@ -143,7 +157,7 @@ impl<'a> PotentialField<'a> {
             return 1.0;
         }
         let d2 = ((p - self.goal) * self.grid.resolution()).norm_squared();
-        1.0 - (-d2 / self.params.chassis_radius.powi(2)).exp()
+        1.0 - (-d2 / self.params.radius().powi(2)).exp()
     }
 
     /// The potential of eq. 7 (with eq. 9's repulsion) at a cell, attracted towards `target`
@@ -199,39 +213,20 @@ impl ApfPlanner {
     }
 }
 
-impl crate::planner::Planner for ApfPlanner {
-    fn name(&self) -> &'static str {
+impl Planner for ApfPlanner {
+    fn name(&self) -> PlannerName {
         if self.substation_field {
-            "eapf"
+            PlannerName::Eapf
         } else {
-            "apf"
+            PlannerName::Apf
         }
     }
 
-    fn plan(
-        &self,
-        problem: &crate::planner::Problem<'_>,
-        ctx: &mut crate::planner::PlanContext<'_>,
-    ) -> Result<crate::planner::RawPlan, crate::planner::PlanError> {
-        let mut stats = crate::planner::PlanStats::default();
-        let cells = match descend(problem.grid, &self.params, problem.start, problem.goal) {
-            Ok(path) => {
-                stats
-                    .counters
-                    .insert("apf_escapes".into(), path.escapes as f64);
-                path.cells
-            }
-            Err(f) => {
-                stats.notes.push(format!(
-                    "the potential field failed ({} after {} steps and {} escapes); A*'s path is returned",
-                    f.reason, f.steps, f.escapes
-                ));
-                stats.counters.insert("apf_fallback".into(), 1.0);
-                crate::astar::astar_cells(problem.grid, problem.start, problem.goal, ctx)?.0
-            }
-        };
+    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
+        let mut stats = PlanStats::default();
+        let cells = field_or_astar(problem, &self.params, ctx, &mut stats, "path")?;
         stats.iterations = cells.len() as u64;
-        Ok(crate::planner::RawPlan {
+        Ok(RawPlan {
             waypoints: cells.iter().map(|c| c.center()).collect(),
             stats,
             pareto: Vec::new(),
@@ -393,16 +388,9 @@ fn descend_with(
     Ok(ApfPath { cells, escapes })
 }
 
-/// The 8-neighbour moves A* allows from a cell (free, no corner cutting).
+/// The 8-neighbour moves A* allows from a cell (the one move rule of [`crate::grid::moves`]).
 fn admissible_moves(grid: &PlanningGrid, c: Cell) -> impl Iterator<Item = Cell> + '_ {
-    NEIGHBOURS_8.iter().filter_map(move |&(dx, dy)| {
-        let n = c.offset(dx, dy);
-        let ok = grid.is_free(n)
-            && (dx == 0
-                || dy == 0
-                || (grid.is_free(c.offset(dx, 0)) && grid.is_free(c.offset(0, dy))));
-        ok.then_some(n)
-    })
+    grid.moves(c).map(|(_, n)| n)
 }
 
 /// Sweeps rays from `cur` away from the goal direction, alternately left and right, for the first
@@ -426,7 +414,7 @@ fn find_traction_point(
         // The first blocked cell along the ray, if any within reach.
         let end = x0 + Vector2::new(theta.cos(), theta.sin()) * reach;
         let mut first = None;
-        crate::raycast::supercover(x0, end, |c| {
+        crate::grid::raycast::supercover(x0, end, |c| {
             if grid.is_free(c) {
                 true
             } else {

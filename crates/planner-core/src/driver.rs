@@ -1,0 +1,261 @@
+//! The one loop of every population planner (the swarms, the colonies, the genetic algorithms),
+//! in the spirit of argmin's executor: a family says how to start ([`Population::init`]), how to
+//! take one iteration ([`Population::step`]) and how to finish ([`Population::finish`]); [`drive`]
+//! owns everything they used to repeat: the interrupt poll, the iteration count, the budget and
+//! the one patience rule, the convergence curve, the best iteration, the observer hook, and the
+//! typed [`Termination`] that the result carries.
+
+use crate::planner::{Interrupt, PlanContext, PlanError, PlanStats, RawPlan};
+use serde::Serialize;
+use std::fmt;
+
+/// Improvements smaller than this do not count (they are rounding, not progress).
+const MIN_IMPROVEMENT: f64 = 1e-12;
+
+/// How long a population planner may run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Budget {
+    /// The most iterations (generations) to run.
+    pub iterations: usize,
+    /// Stop after this many iterations in a row without a better best value; `None` never stops
+    /// early. One name and one meaning for every family.
+    pub patience: Option<usize>,
+}
+
+/// Why a run stopped. Every plan carries one (`PlanStats::termination`), the CLI prints it and
+/// `/diagnostics` reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// A method that runs to its end by itself (graph search, field descent) found its path.
+    Completed,
+    /// The iteration budget was used up.
+    MaxIterations,
+    /// No better value for `patience` iterations in a row.
+    Converged { patience: usize },
+    /// The time budget ran out or the caller cancelled; the best path so far came back.
+    Interrupted(Interrupt),
+}
+
+impl Termination {
+    /// The short name the CLI's JSON and `/diagnostics` carry.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Termination::Completed => "completed",
+            Termination::MaxIterations => "max_iterations",
+            Termination::Converged { .. } => "converged",
+            Termination::Interrupted(Interrupt::Deadline) => "deadline",
+            Termination::Interrupted(Interrupt::Cancelled) => "cancelled",
+        }
+    }
+}
+
+impl fmt::Display for Termination {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Termination::Converged { patience } => {
+                write!(f, "converged (no better value for {patience} iterations)")
+            }
+            other => f.write_str(other.as_str()),
+        }
+    }
+}
+
+impl Serialize for Termination {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+/// What the observer hook sees after every iteration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Iteration {
+    /// 1 for the first iteration.
+    pub number: u64,
+    /// The best value so far (the family's objective; never increases).
+    pub best: f64,
+}
+
+/// A population planner's operators; [`drive`] runs them.
+pub trait Population {
+    /// Builds the initial population; returns the best value in it (`f64::INFINITY` when there
+    /// is none yet). Notes and counters of the start go into `stats`.
+    fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError>;
+
+    /// Iteration `t` (0-based); returns the best value so far, which must never increase.
+    fn step(&mut self, t: usize, ctx: &mut PlanContext<'_>) -> f64;
+
+    /// Objective evaluations so far (the bench's and `/diagnostics`' `evaluations`).
+    fn evaluations(&self) -> u64;
+
+    /// The chosen path (and front), with the family's counters added to `stats`. Called after
+    /// the loop, whatever ended it; `stats.termination` is already set.
+    fn finish(self, stats: PlanStats) -> Result<RawPlan, PlanError>;
+}
+
+/// Runs a population: init, then steps until the budget, the patience or the interrupt ends the
+/// run, then finish. The statistics (iterations, evaluations, convergence, best iteration,
+/// `cut_short`, termination) are the driver's; the family adds its own counters and notes.
+pub fn drive<P: Population>(
+    mut pop: P,
+    budget: Budget,
+    ctx: &mut PlanContext<'_>,
+) -> Result<RawPlan, PlanError> {
+    let mut stats = PlanStats::default();
+    let mut best = pop.init(ctx, &mut stats)?;
+    let mut stalled = 0usize;
+    let mut termination = Termination::MaxIterations;
+    for t in 0..budget.iterations {
+        if let Some(interrupt) = (ctx.interrupt)() {
+            stats.cut_short = true;
+            termination = Termination::Interrupted(interrupt);
+            break;
+        }
+        stats.iterations += 1;
+        let value = pop.step(t, ctx);
+        stats.convergence.push(value);
+        if value < best - MIN_IMPROVEMENT {
+            best = value;
+            stats.best_iteration = Some(t as u64 + 1);
+            stalled = 0;
+        } else {
+            stalled += 1;
+        }
+        if let Some(observe) = ctx.observer.as_mut() {
+            observe(&Iteration {
+                number: t as u64 + 1,
+                best: value,
+            });
+        }
+        if let Some(patience) = budget.patience.filter(|&p| stalled >= p) {
+            termination = Termination::Converged { patience };
+            break;
+        }
+    }
+    stats.evaluations = pop.evaluations();
+    stats.termination = Some(termination);
+    pop.finish(stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::rng;
+
+    /// A population whose best value follows a script.
+    struct Scripted {
+        values: Vec<f64>,
+        evaluations: u64,
+    }
+
+    impl Population for Scripted {
+        fn init(&mut self, _: &mut PlanContext<'_>, _: &mut PlanStats) -> Result<f64, PlanError> {
+            Ok(10.0)
+        }
+        fn step(&mut self, t: usize, _: &mut PlanContext<'_>) -> f64 {
+            self.evaluations += 2;
+            self.values[t.min(self.values.len() - 1)]
+        }
+        fn evaluations(&self) -> u64 {
+            self.evaluations
+        }
+        fn finish(self, stats: PlanStats) -> Result<RawPlan, PlanError> {
+            Ok(RawPlan {
+                stats,
+                ..RawPlan::default()
+            })
+        }
+    }
+
+    fn run(values: &[f64], budget: Budget, interrupt: &dyn Fn() -> Option<Interrupt>) -> PlanStats {
+        let mut r = rng(0);
+        let mut ctx = PlanContext::new(&mut r, interrupt);
+        let pop = Scripted {
+            values: values.to_vec(),
+            evaluations: 0,
+        };
+        drive(pop, budget, &mut ctx).unwrap().stats
+    }
+
+    #[test]
+    fn budget_patience_and_best_iteration() {
+        let values = [9.0, 9.0, 8.0, 8.0, 8.0, 8.0, 7.0];
+        let all = run(
+            &values,
+            Budget {
+                iterations: 7,
+                patience: None,
+            },
+            &|| None,
+        );
+        assert_eq!(all.termination, Some(Termination::MaxIterations));
+        assert_eq!((all.iterations, all.evaluations), (7, 14));
+        assert_eq!(all.best_iteration, Some(7));
+        assert_eq!(all.convergence, values);
+        // Three iterations without improvement after the third: stop at the sixth.
+        let early = run(
+            &values,
+            Budget {
+                iterations: 7,
+                patience: Some(3),
+            },
+            &|| None,
+        );
+        assert_eq!(
+            early.termination,
+            Some(Termination::Converged { patience: 3 })
+        );
+        assert_eq!(early.iterations, 6);
+        assert_eq!(early.best_iteration, Some(3));
+        assert!(!early.cut_short);
+    }
+
+    #[test]
+    fn an_interrupt_stops_before_the_next_iteration() {
+        let calls = std::cell::Cell::new(0);
+        let interrupt = || {
+            calls.set(calls.get() + 1);
+            (calls.get() > 2).then_some(Interrupt::Deadline)
+        };
+        let stats = run(
+            &[5.0],
+            Budget {
+                iterations: 10,
+                patience: None,
+            },
+            &interrupt,
+        );
+        assert_eq!(stats.iterations, 2);
+        assert!(stats.cut_short);
+        assert_eq!(
+            stats.termination,
+            Some(Termination::Interrupted(Interrupt::Deadline))
+        );
+        assert_eq!(
+            Termination::Interrupted(Interrupt::Cancelled).as_str(),
+            "cancelled"
+        );
+    }
+
+    #[test]
+    fn the_observer_sees_every_iteration() {
+        let mut seen = Vec::new();
+        let mut observe = |i: &Iteration| seen.push((i.number, i.best));
+        let mut r = rng(0);
+        let mut ctx = PlanContext::new(&mut r, &|| None);
+        ctx.observer = Some(&mut observe);
+        let pop = Scripted {
+            values: vec![4.0, 3.0],
+            evaluations: 0,
+        };
+        drive(
+            pop,
+            Budget {
+                iterations: 2,
+                patience: None,
+            },
+            &mut ctx,
+        )
+        .unwrap();
+        assert_eq!(seen, vec![(1, 4.0), (2, 3.0)]);
+    }
+}

@@ -1,0 +1,214 @@
+//! The node's parameter file (`config/planner.yaml`, Nav2's `patrol_planner: ros__parameters:`
+//! layout), read the same way by the node and by `patrol-plan --config`: the planning keys go to
+//! planner-core's [`PlannerConfig`], the node's own keys (map, frames, follower, limits) to
+//! [`NodeParams`], and a key that is neither is an error naming it and the file, so a typo such as
+//! `planer: astar` can never silently run the default planner.
+
+use crate::LoadError;
+use chassis::follower::FollowerParams;
+use chassis::limits::TwistLimits;
+use planner_core::config::PlannerConfig;
+use serde::{Deserialize, Serialize};
+use serde_yaml::{Mapping, Value};
+use std::path::{Path, PathBuf};
+
+/// The node name whose block the file holds.
+pub const NODE_NAME: &str = "patrol_planner";
+
+/// What only the node needs, beside the planning parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NodeParams {
+    /// A map_server YAML the node loads itself and publishes on `/map` (transient local), so it
+    /// works without a map server. Relative paths are relative to the parameter file. Empty: wait
+    /// for `/map`.
+    pub map_yaml: String,
+    /// The frame plans are made in; goals must be in it (or have an empty frame).
+    pub global_frame: String,
+    /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
+    /// default: odometry is the map frame, as for the simulated chassis).
+    pub map_to_odom: [f64; 3],
+    /// Re-estimate `map -> odom` instead of keeping `map_to_odom` fixed: from each
+    /// `global_frame -> odom_frame` transform on `/tf` or `/tf_static` (AMCL, slam_toolbox,
+    /// cartographer, a static publisher) and by anchoring each `/initialpose` and `/amcl_pose`.
+    pub track_map_to_odom: bool,
+    /// The odometry frame, the child of `global_frame` on `/tf` (AMCL's `odom_frame_id`).
+    pub odom_frame: String,
+    /// Publish every Pareto-front path on `/patrol_planner/pareto` for RViz.
+    pub publish_pareto: bool,
+    /// Follow each goal's plan: publish `/cmd_vel` from `/odom` (regulated pure pursuit).
+    pub follow_plan: bool,
+    /// The chassis limits the follower keeps to, also forwarded on `/patrol_planner/twist_limits`.
+    pub twist_limits: TwistLimits,
+    /// The path follower.
+    pub follower: FollowerParams,
+    /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
+    /// expects; Nav2's parameter of the same name) instead of Twist.
+    pub enable_stamped_cmd_vel: bool,
+    /// The frame of stamped `/cmd_vel` commands (Nav2's name).
+    pub robot_base_frame: String,
+    /// Follower rate (Hz).
+    pub control_rate_hz: f64,
+    /// The follower stops when `/odom` is older than this (s).
+    pub pose_timeout: f64,
+}
+
+impl Default for NodeParams {
+    fn default() -> Self {
+        Self {
+            map_yaml: String::new(),
+            global_frame: "map".into(),
+            map_to_odom: [0.0; 3],
+            track_map_to_odom: true,
+            odom_frame: "odom".into(),
+            publish_pareto: true,
+            follow_plan: true,
+            twist_limits: TwistLimits::default(),
+            follower: FollowerParams::default(),
+            enable_stamped_cmd_vel: false,
+            robot_base_frame: "base_link".into(),
+            control_rate_hz: 20.0,
+            pose_timeout: 0.5,
+        }
+    }
+}
+
+impl NodeParams {
+    /// Checks the values serde cannot: limits, rates and the transform.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !self.twist_limits.is_valid()
+            || !positive(self.control_rate_hz)
+            || self.control_rate_hz > 200.0
+            || !positive(self.pose_timeout)
+        {
+            return Err(
+                "twist_limits, control_rate_hz (at most 200) and pose_timeout must be finite and positive"
+                    .into(),
+            );
+        }
+        if !self.map_to_odom.iter().all(|v| v.is_finite()) {
+            return Err("map_to_odom must be finite".into());
+        }
+        Ok(())
+    }
+}
+
+/// A whole parameter file: the planning part and the node's own.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ParameterFile {
+    pub planning: PlannerConfig,
+    pub node: NodeParams,
+}
+
+/// The top-level keys a default value serialises to: a struct's field names.
+fn keys<T: Serialize>(value: &T) -> Vec<String> {
+    match serde_yaml::to_value(value) {
+        Ok(Value::Mapping(m)) => m
+            .keys()
+            .filter_map(|k| k.as_str().map(String::from))
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// Reads and validates the `patrol_planner` block of a parameter file. `map_yaml` comes back
+/// resolved against the file's folder.
+pub fn load_parameter_file(path: &Path) -> Result<ParameterFile, LoadError> {
+    let config_err = |message: String| LoadError::Config {
+        path: path.to_owned(),
+        message,
+    };
+    let block = match crate::load_ros_parameters(path, NODE_NAME)? {
+        Value::Mapping(m) => m,
+        Value::Null => Mapping::new(),
+        other => {
+            return Err(config_err(format!(
+                "`{NODE_NAME}: ros__parameters:` is not a mapping but {other:?}"
+            )))
+        }
+    };
+    let planning_keys = keys(&PlannerConfig::default());
+    let node_keys = keys(&NodeParams::default());
+    let (mut planning, mut node) = (Mapping::new(), Mapping::new());
+    for (key, value) in block {
+        let name = key.as_str().unwrap_or_default();
+        if planning_keys.iter().any(|k| k == name) {
+            planning.insert(key, value);
+        } else if node_keys.iter().any(|k| k == name) {
+            node.insert(key, value);
+        } else {
+            let mut valid = planning_keys.clone();
+            valid.extend(node_keys.iter().cloned());
+            return Err(config_err(format!(
+                "unknown parameter `{}` in `{NODE_NAME}: ros__parameters:`; valid: {}",
+                serde_yaml::to_string(&key).unwrap_or_default().trim_end(),
+                valid.join(", ")
+            )));
+        }
+    }
+    let planning: PlannerConfig =
+        serde_yaml::from_value(Value::Mapping(planning)).map_err(|e| config_err(e.to_string()))?;
+    planning.validate().map_err(|e| config_err(e.to_string()))?;
+    let mut node: NodeParams =
+        serde_yaml::from_value(Value::Mapping(node)).map_err(|e| config_err(e.to_string()))?;
+    node.validate().map_err(config_err)?;
+    if !node.map_yaml.is_empty() {
+        let p = PathBuf::from(&node.map_yaml);
+        if p.is_relative() {
+            node.map_yaml = path
+                .parent()
+                .unwrap_or(Path::new("."))
+                .join(p)
+                .to_string_lossy()
+                .into_owned();
+        }
+    }
+    Ok(ParameterFile { planning, node })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, block: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("planner-io-params-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, format!("patrol_planner:\n  ros__parameters:\n{block}")).unwrap();
+        p
+    }
+
+    #[test]
+    fn a_top_level_typo_is_an_error_naming_the_key_and_the_file() {
+        for (file, typo) in [
+            ("planer.yaml", "    planer: astar\n"),
+            ("time.yaml", "    max_planing_time: 1.0\n"),
+            ("node.yaml", "    folow_plan: false\n"),
+        ] {
+            let p = write(file, typo);
+            let err = load_parameter_file(&p).unwrap_err().to_string();
+            let key = typo.trim().split(':').next().unwrap();
+            assert!(err.contains(&format!("`{key}`")), "{err}");
+            assert!(err.contains(file), "{err}");
+        }
+    }
+
+    #[test]
+    fn keys_go_to_their_part() {
+        let p = write(
+            "both.yaml",
+            "    planner: astar\n    follow_plan: false\n    map_yaml: maps/x.yaml\n    swarm: {population: 7}\n",
+        );
+        let file = load_parameter_file(&p).unwrap();
+        assert_eq!(file.planning.planner, planner_core::PlannerName::Astar);
+        assert_eq!(file.planning.swarm.population, 7);
+        assert!(!file.node.follow_plan);
+        assert!(file.node.map_yaml.ends_with("maps/x.yaml") && file.node.map_yaml.len() > 11);
+        let bad = write("rate.yaml", "    control_rate_hz: -1.0\n");
+        assert!(load_parameter_file(&bad)
+            .unwrap_err()
+            .to_string()
+            .contains("control_rate_hz"));
+    }
+}
