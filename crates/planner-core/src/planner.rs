@@ -130,6 +130,9 @@ pub struct Plan {
     pub pareto: Vec<ParetoMember>,
     /// Where the plan actually ends: the requested goal, or the free cell it was snapped to.
     pub goal: Point2,
+    /// The resolution (m per cell) of the grid the plan was made on: its densified form (a
+    /// nav_msgs/Path) is spaced by it, whatever map has arrived since.
+    pub resolution: f64,
 }
 
 /// A planning request in world metres.
@@ -196,7 +199,17 @@ pub fn solve(
     ctx: &mut PlanContext<'_>,
 ) -> Result<Plan, PlanError> {
     let problem = validate(grid, query)?;
-    let mut raw = planner.plan(&problem, ctx)?;
+    let mut raw = if problem.start == problem.goal {
+        // The goal lies in the start's own cell: the straight segment inside one free cell is
+        // the path (Nav2's planners answer such a request with a one- or two-pose path). No
+        // planner is asked: their encodings need at least one cell between the two.
+        RawPlan {
+            waypoints: vec![problem.start_point, problem.goal_point],
+            ..RawPlan::default()
+        }
+    } else {
+        planner.plan(&problem, ctx)?
+    };
     raw.stats.termination.get_or_insert(Termination::Completed);
     let smoothing = options
         .smoothing
@@ -223,6 +236,7 @@ pub fn solve(
         stats: raw.stats,
         pareto,
         goal: info.grid_to_world(problem.goal_point),
+        resolution: info.resolution,
     })
 }
 

@@ -193,4 +193,47 @@ mod tests {
         let err = "dijkstra".parse::<PlannerName>().unwrap_err();
         assert!(err.to_string().contains("astar") && err.to_string().contains("dijkstra"));
     }
+
+    /// A goal in the start's own cell (or equal to the start) is answered by every planner with
+    /// the straight segment inside that cell, as Nav2's planners answer it, not a panic (the
+    /// swarms' encodings used to panic on it).
+    #[test]
+    fn a_goal_in_the_start_cell_gets_the_trivial_path_from_every_planner() {
+        use crate::driver::Termination;
+        use crate::geometry::Point2;
+        use crate::planner::{solve, PlanContext, Query, SolveOptions};
+        use crate::test_support::{grid_from_rows, rng};
+        let grid = grid_from_rows(&["....", "....", "...."]);
+        for (start, goal) in [
+            (Point2::new(1.2, 1.3), Point2::new(1.7, 1.9)),
+            (Point2::new(2.5, 0.5), Point2::new(2.5, 0.5)),
+        ] {
+            let q = Query {
+                start,
+                goal,
+                tolerance: 0.0,
+            };
+            for name in PlannerName::ALL {
+                let planner = build(&PlannerConfig {
+                    planner: name,
+                    ..PlannerConfig::default()
+                })
+                .unwrap();
+                let mut r = rng(1);
+                let plan = solve(
+                    planner.as_ref(),
+                    &grid,
+                    &q,
+                    SolveOptions::default(),
+                    &mut PlanContext::never_interrupted(&mut r),
+                )
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+                assert_eq!(plan.waypoints.first(), Some(&start), "{name}");
+                assert_eq!(plan.waypoints.last(), Some(&goal), "{name}");
+                assert!(plan.waypoints.len() <= 2, "{name}");
+                assert!(plan.metrics.collision_free, "{name}");
+                assert_eq!(plan.stats.termination, Some(Termination::Completed));
+            }
+        }
+    }
 }

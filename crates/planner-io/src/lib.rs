@@ -24,11 +24,38 @@ pub enum LoadError {
     Config { path: PathBuf, message: String },
 }
 
+/// The largest file read (bytes): a map of the cell cap (100 M cells) as a 16-bit PGM is 200 MB.
+/// Anything larger, or anything that is not a regular file (`/dev/zero`, a FIFO), is refused
+/// before it is read, so no file can exhaust memory.
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
 fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
-    std::fs::read(path).map_err(|source| LoadError::Io {
+    use std::io::Read;
+    let io = |source| LoadError::Io {
         path: path.to_owned(),
         source,
-    })
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let meta = file.metadata().map_err(io)?;
+    let refuse = |what: String| io(std::io::Error::new(std::io::ErrorKind::InvalidInput, what));
+    if !meta.is_file() {
+        return Err(refuse("not a regular file".into()));
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(refuse(format!(
+            "{} bytes, more than the {MAX_FILE_BYTES} read",
+            meta.len()
+        )));
+    }
+    // The length can change under us: read at most one byte past the cap and check again.
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(refuse(format!("more than the {MAX_FILE_BYTES} bytes read")));
+    }
+    Ok(bytes)
 }
 
 fn map_err(path: &Path) -> impl FnOnce(MapError) -> LoadError + '_ {
@@ -78,6 +105,10 @@ pub fn load_scenario_file(path: &Path) -> Result<(ScenarioFile, PathBuf), LoadEr
 /// The `ros__parameters` block of `node_name` in a ROS 2 parameter file (Nav2's layout), as YAML.
 pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::Value, LoadError> {
     let text = read(path)?;
+    planner_core::grid::parsers::yaml_guard::check(&text).map_err(|message| LoadError::Config {
+        path: path.to_owned(),
+        message,
+    })?;
     let doc: serde_yaml::Value = serde_yaml::from_slice(&text).map_err(|e| LoadError::Config {
         path: path.to_owned(),
         message: e.to_string(),

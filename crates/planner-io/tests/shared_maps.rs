@@ -171,3 +171,46 @@ fn a_missing_image_is_an_error_naming_it() {
     assert!(matches!(err, LoadError::Io { .. }), "{err}");
     assert!(err.to_string().contains("nowhere.pgm"), "{err}");
 }
+
+/// Files that are not files, or too big, are refused before they are read: `image: /dev/zero`
+/// used to read until memory ran out.
+#[test]
+fn a_map_image_that_is_not_a_regular_file_is_refused() {
+    let dir = std::env::temp_dir().join(format!("planner-io-devzero-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let yaml = dir.join("zero.yaml");
+    std::fs::write(
+        &yaml,
+        "image: /dev/zero\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    let err = planner_io::load_map_server(&yaml).unwrap_err().to_string();
+    assert!(
+        err.contains("/dev/zero") && err.contains("not a regular file"),
+        "{err}"
+    );
+    // A directory given as a map is refused the same way.
+    let err = planner_io::load_map(&dir).unwrap_err().to_string();
+    assert!(err.contains("not a regular file"), "{err}");
+}
+
+/// A parameter file nested 100,000 levels deep is refused at once (it took 20 s to parse).
+#[test]
+fn a_deeply_nested_parameter_file_is_refused_quickly() {
+    let dir = std::env::temp_dir().join(format!("planner-io-deep-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("deep.yaml");
+    std::fs::write(
+        &p,
+        format!(
+            "patrol_planner:\n  ros__parameters:\n    planner: {}astar{}\n",
+            "[".repeat(100_000),
+            "]".repeat(100_000)
+        ),
+    )
+    .unwrap();
+    let t0 = std::time::Instant::now();
+    let err = load_planner_config(&p).unwrap_err().to_string();
+    assert!(err.contains("nested deeper"), "{err}");
+    assert!(t0.elapsed().as_secs() < 2);
+}

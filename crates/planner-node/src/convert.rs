@@ -122,6 +122,15 @@ pub fn msg_from_grid(map: &GridMap, frame: &str, stamp: Time) -> OccupancyGrid {
 /// dense paths and its controllers expect them), each pose facing along the path, the last one
 /// with the goal's heading.
 pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Header) -> Path {
+    // Densification is bounded whatever the spacing asked for: at most about MAX_PATH_POSES
+    // poses (plus one per waypoint).
+    let total: f64 = waypoints.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    let spacing = if spacing.is_finite() && spacing > 0.0 {
+        spacing
+    } else {
+        total
+    };
+    let spacing = spacing.max(total / MAX_PATH_POSES as f64);
     let mut points: Vec<Point2> = Vec::new();
     for w in waypoints.windows(2) {
         let d = w[1] - w[0];
@@ -152,6 +161,10 @@ pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Heade
         .collect();
     Path { header, poses }
 }
+
+/// The most poses (about) a published path holds: a 5 km patrol at 5 cm spacing. A longer or
+/// finer plan is spaced more widely instead of exhausting memory.
+pub const MAX_PATH_POSES: usize = 100_000;
 
 /// One `/diagnostics` status per request: the result code, the reason and the figures.
 pub fn diagnostics(
@@ -392,6 +405,26 @@ mod tests {
             grid_from_msg(&bad),
             Err(MapError::BadResolution(_))
         ));
+    }
+
+    /// A 100 m path at a resolution of 1e-6 m (a map replaced mid-plan, a corrupted one) is
+    /// spaced more widely, not densified into 10^8 poses; nonsense spacings still give a path.
+    #[test]
+    fn densification_is_bounded() {
+        let wp = [Point2::new(0.0, 0.0), Point2::new(100.0, 0.0)];
+        let path = path_msg(&wp, 0.0, 1e-6, Header::default());
+        assert!(
+            path.poses.len() <= MAX_PATH_POSES + 2,
+            "{}",
+            path.poses.len()
+        );
+        assert!(path.poses.len() > MAX_PATH_POSES / 2);
+        for spacing in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let path = path_msg(&wp, 0.0, spacing, Header::default());
+            assert!((2..=3).contains(&path.poses.len()), "{spacing}");
+        }
+        let one = path_msg(&[Point2::new(1.0, 1.0)], 0.5, 0.05, Header::default());
+        assert_eq!(one.poses.len(), 1);
     }
 
     #[test]

@@ -196,13 +196,17 @@ pub async fn run(file: ParameterFile) -> Result<()> {
             tf_subs.push((name, sub));
         }
     }
-    let service_qos = ros_edge::reliable(10, Durability::Volatile);
+    // Requests are answered one after another; the reader keeps up to REQUEST_QUEUE waiting
+    // ones (a burst of 200 concurrent calls used to lose all but the last 10 of them, which then
+    // never got an answer). Replies (a plan each, kilobytes) are kept until acknowledged.
+    const REQUEST_QUEUE: usize = 1024;
+    const REPLY_QUEUE: usize = 64;
     let server = node.create_server::<GetPlanRequest, GetPlanResponse>(
         ServiceMapping::Enhanced,
         &Name::new("/patrol_planner", "make_plan")?,
         &ServiceTypeName::new("nav_msgs", "GetPlan"),
-        service_qos.clone(),
-        service_qos,
+        ros_edge::reliable(REQUEST_QUEUE, Durability::Volatile),
+        ros_edge::reliable(REPLY_QUEUE, Durability::Volatile),
     )?;
     let cmd_pub = if params.enable_stamped_cmd_vel {
         let t = topic(

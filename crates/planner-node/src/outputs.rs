@@ -88,15 +88,10 @@ impl Outputs {
         }
     }
 
-    /// A plan as nav_msgs/Path, densified at the current map's resolution.
+    /// A plan as nav_msgs/Path, densified at the resolution of the map it was planned on (not
+    /// the current one: a map may have replaced it meanwhile).
     pub fn path(&self, s: &Shared, plan: &Plan, goal_yaw: f64) -> Path {
-        let spacing = s
-            .map
-            .read()
-            .expect("lock")
-            .as_ref()
-            .map_or(0.05, |m| m.map.info().resolution);
-        convert::path_msg(&plan.waypoints, goal_yaw, spacing, self.header(s))
+        convert::path_msg(&plan.waypoints, goal_yaw, plan.resolution, self.header(s))
     }
 
     /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`. Returns the

@@ -99,7 +99,7 @@ pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
     let costmap = s.planning.costmap.clone();
     let (w, h) = (map.width(), map.height());
     match tokio::task::spawn_blocking(move || {
-        PlanningGrid::new(&map, &costmap).map(|grid| MapState { map, grid })
+        PlanningGrid::new(&map, &costmap).map(|grid| MapState { grid })
     })
     .await
     {

@@ -6,7 +6,6 @@ use crate::localization::Localization;
 use chassis::follower::Follower;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::Pose2;
-use planner_core::grid::GridMap;
 use planner_core::grid::PlanningGrid;
 use planner_core::PlannerName;
 use planner_io::parameters::NodeParams;
@@ -22,9 +21,8 @@ pub struct Live {
     pub tolerance: f64,
 }
 
-/// A validated map with its planning grid.
+/// A validated map's planning grid (inflated obstacles, clearance, the map's metadata).
 pub struct MapState {
-    pub map: GridMap,
     pub grid: PlanningGrid,
 }
 

@@ -199,27 +199,61 @@ impl PlanningGrid {
         }
     }
 
-    /// The nearest free cell to `c` within `radius_cells` (Euclidean, centre to centre), ties
-    /// broken by scan order so that the answer is deterministic.
+    /// The nearest free cell to `c` (a cell of the map) within `radius_cells` (Euclidean, centre
+    /// to centre), ties broken by the order of rows then columns (the lowest `dy`, then `dx`), so
+    /// the answer is deterministic.
+    ///
+    /// Bounded by the map, whatever the radius: rings of growing Chebyshev distance are scanned,
+    /// only their parts inside the map, and the search stops as soon as no further ring can hold
+    /// a nearer cell, or the rings leave the map. A tolerance of a million metres costs no more
+    /// than the map itself.
     pub fn nearest_free(&self, c: Cell, radius_cells: f64) -> Option<Cell> {
         if self.is_free(c) {
             return Some(c);
         }
-        let r = radius_cells.floor() as i32;
-        let mut best: Option<(i64, Cell)> = None;
-        for dy in -r..=r {
-            for dx in -r..=r {
-                let d2 = (dx * dx + dy * dy) as i64;
-                if (d2 as f64) > radius_cells * radius_cells {
-                    continue;
+        if radius_cells.is_nan() || radius_cells < 1.0 || !self.info.contains(c) {
+            return None;
+        }
+        let (w, h) = (self.width() as i64, self.height() as i64);
+        let (cx, cy) = (c.x as i64, c.y as i64);
+        let to_edge = cx.max(w - 1 - cx).max(cy).max(h - 1 - cy);
+        let r_max = (radius_cells.floor() as i64).min(to_edge);
+        let limit2 = radius_cells * radius_cells;
+        // (d2, dy, dx) of the best so far: the smallest distance, then the first in scan order.
+        let mut best: Option<(i64, i64, i64)> = None;
+        let consider = |dx: i64, dy: i64, best: &mut Option<(i64, i64, i64)>| {
+            let (x, y) = (cx + dx, cy + dy);
+            if x < 0 || y < 0 || x >= w || y >= h {
+                return;
+            }
+            let d2 = dx * dx + dy * dy;
+            if (d2 as f64) > limit2 || best.is_some_and(|b| (d2, dy, dx) >= b) {
+                return;
+            }
+            if self.is_free(Cell::new(x as i32, y as i32)) {
+                *best = Some((d2, dy, dx));
+            }
+        };
+        for r in 1..=r_max {
+            // Every cell of ring r is at least r away: once the best is within r, no cell of this
+            // ring or a later one is nearer; a tie needs this ring still (same d2, earlier order).
+            if best.is_some_and(|(d2, _, _)| d2 < r * r) {
+                break;
+            }
+            let (x_lo, x_hi) = ((-r).max(-cx), r.min(w - 1 - cx));
+            for dy in [-r, r] {
+                for dx in x_lo..=x_hi {
+                    consider(dx, dy, &mut best);
                 }
-                let n = c.offset(dx, dy);
-                if self.is_free(n) && best.is_none_or(|(b, _)| d2 < b) {
-                    best = Some((d2, n));
+            }
+            let (y_lo, y_hi) = ((-r + 1).max(-cy), (r - 1).min(h - 1 - cy));
+            for dx in [-r, r] {
+                for dy in y_lo..=y_hi {
+                    consider(dx, dy, &mut best);
                 }
             }
         }
-        best.map(|(_, n)| n)
+        best.map(|(_, dy, dx)| Cell::new((cx + dx) as i32, (cy + dy) as i32))
     }
 }
 
@@ -372,6 +406,51 @@ mod tests {
         // The nearest free cells are sqrt(5) away; the first in scan order wins.
         assert_eq!(g.nearest_free(Cell::new(4, 4), 3.0), Some(Cell::new(3, 2)));
         assert_eq!(g.nearest_free(Cell::new(4, 4), 2.0), None);
+    }
+
+    /// The ring search equals the plain scan of the whole square (the old implementation) on
+    /// random grids, and a huge radius costs no more than the map.
+    #[test]
+    fn nearest_free_equals_the_full_scan_and_is_bounded_by_the_map() {
+        use crate::test_support::random_grid;
+        let scan = |g: &PlanningGrid, c: Cell, radius: f64| -> Option<Cell> {
+            let r = radius.floor() as i32;
+            let mut best: Option<(i64, Cell)> = None;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let d2 = (dx * dx + dy * dy) as i64;
+                    let n = c.offset(dx, dy);
+                    if (d2 as f64) <= radius * radius
+                        && g.is_free(n)
+                        && best.is_none_or(|(b, _)| d2 < b)
+                    {
+                        best = Some((d2, n));
+                    }
+                }
+            }
+            best.map(|(_, n)| n)
+        };
+        for seed in 0..40 {
+            let (g, a, b) = random_grid(seed, 23, 17, 0.8);
+            for c in [a, b, Cell::new(0, 0), Cell::new(22, 16), Cell::new(11, 8)] {
+                for radius in [0.5, 1.0, 1.5, 2.9, 4.0, 7.3, 40.0] {
+                    assert_eq!(
+                        g.nearest_free(c, radius),
+                        scan(&g, c, radius),
+                        "seed {seed} {c:?} r {radius}"
+                    );
+                }
+            }
+        }
+        // A fully blocked 2000 x 2000 grid and a tolerance of 1e9 cells: one pass over the map.
+        let info = MapInfo {
+            width: 2000,
+            height: 2000,
+            resolution: 0.05,
+            origin: Pose2::default(),
+        };
+        let g = PlanningGrid::from_obstacles(info, vec![true; 4_000_000], 0.0);
+        assert_eq!(g.nearest_free(Cell::new(1000, 1000), 1e9), None);
     }
 
     #[test]

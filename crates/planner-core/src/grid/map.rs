@@ -13,6 +13,15 @@ use serde::{Deserialize, Serialize};
 /// that a corrupt header cannot make the node allocate gigabytes.
 pub const DEFAULT_MAX_CELLS: u64 = 100_000_000;
 
+/// The finest resolution (m per cell) a map may have: below a millimetre a map is a unit error
+/// (a resolution in km, a corrupted message), and plans densified at it would be huge.
+pub const MIN_RESOLUTION: f64 = 1e-3;
+/// The coarsest resolution (m per cell) a map may have.
+pub const MAX_RESOLUTION: f64 = 100.0;
+/// How far (m) a map's origin and far corner may lie from the frame's origin: a planet's worth of
+/// SLAM map is far less; beyond it the coordinates lose the precision planning needs.
+pub const MAX_EXTENT: f64 = 1e6;
+
 /// Value of an unknown cell.
 pub const UNKNOWN: i8 = -1;
 
@@ -23,10 +32,14 @@ pub const UNKNOWN: i8 = -1;
 pub enum MapError {
     #[error("map has zero size ({width} x {height})")]
     ZeroSize { width: u32, height: u32 },
-    #[error("map resolution {0} is not a finite positive number")]
+    #[error(
+        "map resolution {0} m is not a finite number within {MIN_RESOLUTION}..={MAX_RESOLUTION} m"
+    )]
     BadResolution(f64),
-    #[error("map origin ({x}, {y}, yaw {yaw}) is not finite")]
+    #[error("map origin ({x}, {y}, yaw {yaw}) is not finite or lies beyond {MAX_EXTENT} m")]
     BadOrigin { x: f64, y: f64, yaw: f64 },
+    #[error("map extends {extent} m from its origin, beyond {MAX_EXTENT} m")]
+    TooFar { extent: f64 },
     #[error("map data has {actual} cells but width x height = {expected}")]
     DataLength { expected: u64, actual: usize },
     #[error("map has {cells} cells, more than the limit of {limit}")]
@@ -104,17 +117,23 @@ impl MapInfo {
         Cell::new((index % w) as i32, (index / w) as i32)
     }
 
-    fn validate(&self, max_cells: u64) -> Result<(), MapError> {
+    /// Checks the metadata alone, so a parser can refuse a map before it allocates its cells:
+    /// non-zero size, at most `max_cells` cells, a resolution within
+    /// [`MIN_RESOLUTION`]..=[`MAX_RESOLUTION`], an origin and extent within [`MAX_EXTENT`].
+    pub fn validate(&self, max_cells: u64) -> Result<(), MapError> {
         if self.width == 0 || self.height == 0 {
             return Err(MapError::ZeroSize {
                 width: self.width,
                 height: self.height,
             });
         }
-        if !(self.resolution.is_finite() && self.resolution > 0.0) {
+        if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&self.resolution) {
             return Err(MapError::BadResolution(self.resolution));
         }
-        if !self.origin.is_finite() {
+        if !self.origin.is_finite()
+            || self.origin.x.abs() > MAX_EXTENT
+            || self.origin.y.abs() > MAX_EXTENT
+        {
             let o = self.origin;
             return Err(MapError::BadOrigin {
                 x: o.x,
@@ -128,6 +147,10 @@ impl MapInfo {
                 cells,
                 limit: max_cells,
             });
+        }
+        let extent = self.width.max(self.height) as f64 * self.resolution;
+        if extent > MAX_EXTENT {
+            return Err(MapError::TooFar { extent });
         }
         Ok(())
     }

@@ -66,6 +66,7 @@ fn flag<'de, D: serde::Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
 impl MapYaml {
     /// Parses and checks the YAML text.
     pub fn parse(text: &[u8]) -> Result<Self, MapError> {
+        super::yaml_guard::check(text).map_err(|e| MapError::Format(format!("map yaml: {e}")))?;
         let y: MapYaml =
             serde_yaml::from_slice(text).map_err(|e| MapError::Format(format!("map yaml: {e}")))?;
         if !(y.resolution.is_finite() && y.resolution > 0.0) {
@@ -96,29 +97,62 @@ impl MapYaml {
         image_bytes: &[u8],
         max_cells: u64,
     ) -> Result<GridMap, MapError> {
-        let img = image::load_from_memory(image_bytes)
-            .map_err(|e| MapError::Format(format!("map image `{}`: {e}", self.image)))?;
-        let (w, h) = (img.width(), img.height());
+        let image_err =
+            |e: image::ImageError| MapError::Format(format!("map image `{}`: {e}", self.image));
+        // The image's header chooses the size: read the dimensions alone and check them (cell
+        // cap, resolution, extent) before decoding a single pixel.
+        let reader = || {
+            image::ImageReader::new(std::io::Cursor::new(image_bytes))
+                .with_guessed_format()
+                .map_err(|e| MapError::Format(format!("map image `{}`: {e}", self.image)))
+        };
+        let (w, h) = reader()?.into_dimensions().map_err(image_err)?;
         let info = MapInfo {
             width: w,
             height: h,
             resolution: self.resolution,
             origin: Pose2::new(self.origin[0], self.origin[1], self.origin[2]),
         };
-        // Check the size before allocating the grid.
-        if (w as u64) * (h as u64) > max_cells {
-            return Err(MapError::TooLarge {
-                cells: w as u64 * h as u64,
-                limit: max_cells,
-            });
-        }
+        info.validate(max_cells)?;
+        let img = reader()?.decode().map_err(image_err)?;
         let has_alpha = img.color().has_alpha();
-        let rgba = img.into_rgba16();
         let mut data = vec![UNKNOWN; w as usize * h as usize];
-        for (x, y, px) in rgba.enumerate_pixels() {
-            let [r, g, b, a] = px.0.map(|c| c as f64 / 65535.0);
-            let cell = self.classify(r, g, b, a, has_alpha);
-            data[(h - 1 - y) as usize * w as usize + x as usize] = cell;
+        let mut put = |x: u32, y: u32, px: [u16; 4]| {
+            let [r, g, b, a] = px.map(|c| c as f64 / 65535.0);
+            data[(h - 1 - y) as usize * w as usize + x as usize] =
+                self.classify(r, g, b, a, has_alpha);
+        };
+        // 8-bit images (map_saver's PGMs, most PNGs) are read in place, widened per pixel as the
+        // image crate widens them (v * 257), so no 16-bit RGBA copy of the map is ever made.
+        let wide = |v: u8| v as u16 * 257;
+        match &img {
+            image::DynamicImage::ImageLuma8(px) => {
+                for (x, y, p) in px.enumerate_pixels() {
+                    let v = wide(p.0[0]);
+                    put(x, y, [v, v, v, u16::MAX]);
+                }
+            }
+            image::DynamicImage::ImageLumaA8(px) => {
+                for (x, y, p) in px.enumerate_pixels() {
+                    let v = wide(p.0[0]);
+                    put(x, y, [v, v, v, wide(p.0[1])]);
+                }
+            }
+            image::DynamicImage::ImageRgb8(px) => {
+                for (x, y, p) in px.enumerate_pixels() {
+                    put(x, y, [wide(p.0[0]), wide(p.0[1]), wide(p.0[2]), u16::MAX]);
+                }
+            }
+            image::DynamicImage::ImageRgba8(px) => {
+                for (x, y, p) in px.enumerate_pixels() {
+                    put(x, y, p.0.map(wide));
+                }
+            }
+            other => {
+                for (x, y, p) in other.to_rgba16().enumerate_pixels() {
+                    put(x, y, p.0);
+                }
+            }
         }
         GridMap::with_limit(info, data, max_cells)
     }
@@ -279,5 +313,61 @@ mod tests {
             y.decode_with_limit(&pgm(&[&[0, 0, 0]]), 2),
             Err(MapError::TooLarge { cells: 3, limit: 2 })
         ));
+        // A PGM header that claims 100000 x 100000 pixels, with no pixels behind it: refused
+        // from the header, not after decoding (or trying to).
+        let huge = b"P5\n100000 100000\n255\n".to_vec();
+        assert!(matches!(
+            y.decode(&huge),
+            Err(MapError::TooLarge {
+                cells: 10_000_000_000,
+                ..
+            })
+        ));
+    }
+
+    /// The in-place 8-bit paths classify every pixel exactly as the 16-bit RGBA conversion does,
+    /// for each layout and mode (the thresholds are compared in floating point, so the widening
+    /// must be the image crate's, bit for bit).
+    #[test]
+    fn eight_bit_layouts_match_the_sixteen_bit_reference() {
+        use image::{DynamicImage, ImageFormat};
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let (w, h) = (17u32, 9u32);
+        let bytes = |n: usize, rng: &mut rand_chacha::ChaCha8Rng| -> Vec<u8> {
+            (0..n).map(|_| rng.random()).collect()
+        };
+        let images = [
+            DynamicImage::ImageLuma8(
+                image::GrayImage::from_raw(w, h, bytes(153, &mut rng)).unwrap(),
+            ),
+            DynamicImage::ImageLumaA8(
+                image::GrayAlphaImage::from_raw(w, h, bytes(306, &mut rng)).unwrap(),
+            ),
+            DynamicImage::ImageRgb8(image::RgbImage::from_raw(w, h, bytes(459, &mut rng)).unwrap()),
+            DynamicImage::ImageRgba8(
+                image::RgbaImage::from_raw(w, h, bytes(612, &mut rng)).unwrap(),
+            ),
+        ];
+        for mode in ["trinary", "scale", "raw"] {
+            let y = yaml(&format!("mode: {mode}\n"));
+            for img in &images {
+                let mut png = Vec::new();
+                img.write_to(&mut std::io::Cursor::new(&mut png), ImageFormat::Png)
+                    .unwrap();
+                let map = y.decode(&png).unwrap();
+                let has_alpha = img.color().has_alpha();
+                for (x, yy, px) in img.to_rgba16().enumerate_pixels() {
+                    let [r, g, b, a] = px.0.map(|c| c as f64 / 65535.0);
+                    let want = y.classify(r, g, b, a, has_alpha);
+                    assert_eq!(
+                        map.data()[((h - 1 - yy) * w + x) as usize],
+                        want,
+                        "{mode} {:?} at ({x}, {yy})",
+                        img.color()
+                    );
+                }
+            }
+        }
     }
 }

@@ -10,6 +10,7 @@
 //! `bucket map width height sx sy gx gy optimal_length`.
 
 use crate::geometry::{Cell, Pose2};
+use crate::grid::map::DEFAULT_MAX_CELLS;
 use crate::grid::{GridMap, MapError, MapInfo};
 
 /// A parsed Moving AI map.
@@ -22,9 +23,11 @@ impl MovingAiMap {
     pub fn parse(text: &[u8]) -> Result<Self, MapError> {
         let text = std::str::from_utf8(text).map_err(|_| fmt_err("map is not text"))?;
         let mut lines = text.lines();
+        let mut header_bytes = 0usize;
         let mut height = None;
         let mut width = None;
         for line in lines.by_ref() {
+            header_bytes += line.len() + 1;
             let mut words = line.split_whitespace();
             match (words.next(), words.next()) {
                 (Some("type"), _) => {}
@@ -44,7 +47,16 @@ impl MovingAiMap {
             resolution: 1.0,
             origin: Pose2::default(),
         };
-        let mut data = vec![0i8; w as usize * h as usize];
+        // The header chooses the size: check it, and that the file can hold that many cells,
+        // before allocating anything.
+        info.validate(DEFAULT_MAX_CELLS)?;
+        let cells = w as u64 * h as u64;
+        if ((text.len() - header_bytes.min(text.len())) as u64) < cells {
+            return Err(fmt_err(&format!(
+                "the header says {w} x {h} cells, but the file holds fewer characters"
+            )));
+        }
+        let mut data = vec![0i8; cells as usize];
         let mut rows = 0u32;
         for line in lines.filter(|l| !l.trim().is_empty()) {
             if rows == h {
@@ -122,7 +134,14 @@ pub fn parse_scenarios(text: &[u8]) -> Result<Vec<MovingAiScenario>, MapError> {
         let opt_text = words[8];
         let optimal_length: f64 = opt_text
             .parse()
-            .map_err(|_| fmt_err(&format!("scen line {}: bad length `{opt_text}`", n + 1)))?;
+            .ok()
+            .filter(|v: &f64| v.is_finite() && *v >= 0.0)
+            .ok_or_else(|| {
+                fmt_err(&format!(
+                    "scen line {}: optimal length `{opt_text}` is not a finite non-negative number",
+                    n + 1
+                ))
+            })?;
         // The unit of the last printed digit. A number without a point comes from `%g`, which
         // drops trailing zeros: `1` is 1.00000, six significant digits.
         let last_digit = match opt_text.split_once('.') {
@@ -172,6 +191,31 @@ mod tests {
         assert!(MovingAiMap::parse(b"type octile\nheight 2\nwidth 2\nmap\n..\n").is_err());
         assert!(MovingAiMap::parse(b"type octile\nheight 1\nwidth 2\nmap\n.X\n").is_err());
         assert!(MovingAiMap::parse(b"type octile\nwidth 2\nmap\n..\n").is_err());
+    }
+
+    /// Inputs the fuzzer found: a header that asks for more than the file holds (or than the
+    /// cell cap allows) is refused before anything is allocated, and an overflowing height is an
+    /// error, not a panic.
+    #[test]
+    fn the_header_cannot_choose_the_allocation() {
+        for text in [
+            "type octile\nheight 4294967295\nwidth 1\nmap\n.\n",
+            "type octile\nheight 4294967295\nwidth 4294967295\nmap\n",
+            "type octile\nheight 100000\nwidth 100000\nmap\n..\n",
+            "type octile\nheight 3000\nwidth 3000\nmap\n...\n",
+            "type octile\nheight 0\nwidth 5\nmap\n",
+        ] {
+            assert!(MovingAiMap::parse(text.as_bytes()).is_err(), "{text}");
+        }
+    }
+
+    #[test]
+    fn a_scen_with_a_nan_inf_or_negative_optimum_is_malformed() {
+        for opt in ["inf", "-inf", "NaN", "-1.5"] {
+            let text = format!("version 1\n0\ta.map\t9\t9\t1\t1\t1\t2\t{opt}\n");
+            let err = parse_scenarios(text.as_bytes()).unwrap_err().to_string();
+            assert!(err.contains("line 2") && err.contains(opt), "{err}");
+        }
     }
 
     #[test]

@@ -38,6 +38,8 @@ impl Scenario {
 
 impl ScenarioFile {
     pub fn parse(text: &[u8]) -> Result<Self, MapError> {
+        super::yaml_guard::check(text)
+            .map_err(|e| MapError::Format(format!("scenario file: {e}")))?;
         serde_yaml::from_slice(text).map_err(|e| MapError::Format(format!("scenario file: {e}")))
     }
 }
