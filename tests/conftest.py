@@ -102,12 +102,16 @@ class Ros:
 BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
 
 
-def start_binary(binary, domain, params_file, log_name, rust_log):
-    """A real release binary on `domain`, its output in target/`log_name`."""
+def start_binary(binary, domain, params_file, log_name, rust_log, ros_args=()):
+    """A real release binary on `domain`, its output in target/`log_name`; `ros_args` go after
+    `--ros-args` (remaps such as `-r __node:=planner_server`)."""
     assert binary.exists(), f"{binary} is missing: build it with `cargo build --release`"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG=rust_log)
     log = open(ROOT / "target" / log_name, "w")
-    proc = subprocess.Popen([str(binary), "--params-file", str(params_file)], env=env, stdout=log, stderr=log)
+    args = [str(binary), "--params-file", str(params_file)]
+    if ros_args:
+        args += ["--ros-args", *ros_args]
+    proc = subprocess.Popen(args, env=env, stdout=log, stderr=log)
     proc.log = log
     return proc
 
@@ -131,9 +135,9 @@ def stop_binary(proc):
         raise AssertionError(f"{problem}; the end of {proc.log.name}:\n{tail}")
 
 
-def start_node(domain, params_file, log_name):
+def start_node(domain, params_file, log_name, ros_args=()):
     """The real patrol_planner on `domain`, its output in target/`log_name`."""
-    return start_binary(BINARY, domain, params_file, log_name, "patrol_planner=info,warn")
+    return start_binary(BINARY, domain, params_file, log_name, "patrol_planner=info,warn", ros_args)
 
 
 def start_bridge(domain, params_file, log_name, rust_log="chassis_bridge=info,warn"):

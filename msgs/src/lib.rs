@@ -281,6 +281,81 @@ pub mod nav_msgs {
     );
 }
 
+/// lifecycle_msgs: the managed-node interface (ROS 2 design "Managed nodes") that Nav2's
+/// lifecycle_manager drives.
+pub mod lifecycle_msgs {
+    use super::*;
+    /// lifecycle_msgs/State (the id constants are the primary and transition states).
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct State {
+        pub id: u8,
+        pub label: String,
+    }
+    /// lifecycle_msgs/Transition
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct Transition {
+        pub id: u8,
+        pub label: String,
+    }
+    /// lifecycle_msgs/TransitionDescription
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct TransitionDescription {
+        pub transition: Transition,
+        pub start_state: State,
+        pub goal_state: State,
+    }
+    /// lifecycle_msgs/TransitionEvent
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct TransitionEvent {
+        pub timestamp: u64,
+        pub transition: Transition,
+        pub start_state: State,
+        pub goal_state: State,
+    }
+    /// lifecycle_msgs/srv/ChangeState request
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct ChangeStateRequest {
+        pub transition: Transition,
+    }
+    /// lifecycle_msgs/srv/ChangeState response
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct ChangeStateResponse {
+        pub success: bool,
+    }
+    /// An empty request (GetState, GetAvailableStates, GetAvailableTransitions,
+    /// GetTransitionGraph): rosidl gives every empty structure one placeholder byte.
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct EmptyRequest {
+        pub structure_needs_at_least_one_member: u8,
+    }
+    /// lifecycle_msgs/srv/GetState response
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct GetStateResponse {
+        pub current_state: State,
+    }
+    /// lifecycle_msgs/srv/GetAvailableStates response
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct GetAvailableStatesResponse {
+        pub available_states: Vec<State>,
+    }
+    /// lifecycle_msgs/srv/GetAvailableTransitions (and GetTransitionGraph) response
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct GetAvailableTransitionsResponse {
+        pub available_transitions: Vec<TransitionDescription>,
+    }
+    messages!(
+        State,
+        Transition,
+        TransitionEvent,
+        ChangeStateRequest,
+        ChangeStateResponse,
+        EmptyRequest,
+        GetStateResponse,
+        GetAvailableStatesResponse,
+        GetAvailableTransitionsResponse
+    );
+}
+
 pub mod diagnostic_msgs {
     use super::std_msgs::Header;
     use super::*;

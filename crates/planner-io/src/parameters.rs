@@ -51,6 +51,10 @@ pub struct NodeParams {
     pub control_rate_hz: f64,
     /// The follower stops when `/odom` is older than this (s).
     pub pose_timeout: f64,
+    /// Configure and activate itself at start (lifecycle), as without a lifecycle manager. Set
+    /// false when Nav2's lifecycle_manager manages the node: it then starts unconfigured and
+    /// plans only once activated.
+    pub autostart: bool,
 }
 
 impl Default for NodeParams {
@@ -69,6 +73,7 @@ impl Default for NodeParams {
             robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
             pose_timeout: 0.5,
+            autostart: true,
         }
     }
 }
@@ -115,16 +120,39 @@ fn keys<T: Serialize>(value: &T) -> Vec<String> {
 /// Reads and validates the `patrol_planner` block of a parameter file. `map_yaml` comes back
 /// resolved against the file's folder.
 pub fn load_parameter_file(path: &Path) -> Result<ParameterFile, LoadError> {
+    load_parameter_file_for(path, &[NODE_NAME])
+}
+
+/// The same for a node that may run under another name (`-r __node:=planner_server -r
+/// __ns:=/robot1`): the first block the file has among `node_names` (say the fully qualified
+/// name, the plain name, `/**` as rclcpp's wildcard, then `patrol_planner`) is read.
+pub fn load_parameter_file_for(
+    path: &Path,
+    node_names: &[&str],
+) -> Result<ParameterFile, LoadError> {
     let config_err = |message: String| LoadError::Config {
         path: path.to_owned(),
         message,
     };
-    let block = match crate::load_ros_parameters(path, NODE_NAME)? {
+    let found = node_names
+        .iter()
+        .map(|name| (name, crate::load_ros_parameters(path, name)))
+        .find(|(_, r)| !matches!(r, Err(LoadError::Config { message, .. }) if message.starts_with("no `")));
+    let (node_name, block) = match found {
+        Some((name, block)) => (*name, block?),
+        None => {
+            return Err(config_err(format!(
+                "no `<node>: ros__parameters:` block for any of {}",
+                node_names.join(", ")
+            )))
+        }
+    };
+    let block = match block {
         Value::Mapping(m) => m,
         Value::Null => Mapping::new(),
         other => {
             return Err(config_err(format!(
-                "`{NODE_NAME}: ros__parameters:` is not a mapping but {other:?}"
+                "`{node_name}: ros__parameters:` is not a mapping but {other:?}"
             )))
         }
     };
@@ -141,7 +169,7 @@ pub fn load_parameter_file(path: &Path) -> Result<ParameterFile, LoadError> {
             let mut valid = planning_keys.clone();
             valid.extend(node_keys.iter().cloned());
             return Err(config_err(format!(
-                "unknown parameter `{}` in `{NODE_NAME}: ros__parameters:`; valid: {}",
+                "unknown parameter `{}` in `{node_name}: ros__parameters:`; valid: {}",
                 serde_yaml::to_string(&key).unwrap_or_default().trim_end(),
                 valid.join(", ")
             )));

@@ -8,6 +8,7 @@
 mod convert;
 mod follow;
 mod inputs;
+mod lifecycle;
 mod localization;
 mod node;
 mod outputs;
@@ -16,15 +17,26 @@ mod planning;
 mod result;
 mod state;
 
-use planner_io::parameters::{load_parameter_file, ParameterFile};
+use planner_io::parameters::{load_parameter_file_for, ParameterFile};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     // The node's own records (and the planners' notes) also go to /rosout once the node exists.
     ros_edge::logging::init(&["patrol_planner", "planner_core", "planner_io"]);
+    let naming = match ros_edge::naming::Naming::from_env("patrol_planner") {
+        Ok(n) => n,
+        Err(e) => {
+            log::error!("command line: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     let (path, explicit) = ros_edge::params_file("config/planner.yaml");
     let params = if explicit || path.exists() {
-        match load_parameter_file(&path) {
+        // The block of the node's own name (as a Nav2 params file has `planner_server:`), else
+        // rclcpp's wildcard, else patrol_planner's.
+        let full = naming.node_path();
+        let names = [full.as_str(), naming.node.as_str(), "/**", "patrol_planner"];
+        match load_parameter_file_for(&path, &names) {
             Ok(p) => {
                 log::info!("parameters from {}", path.display());
                 p
@@ -39,7 +51,7 @@ fn main() -> ExitCode {
         log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
         ParameterFile::default()
     };
-    match ros_edge::run_ros(node::run(params)) {
+    match ros_edge::run_ros(node::run(params, naming)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             log::error!("{e:#}");

@@ -25,6 +25,7 @@
 use crate::convert;
 use crate::follow;
 use crate::inputs;
+use crate::lifecycle;
 use crate::localization::Localization;
 use crate::outputs::{CmdVel, Outputs};
 use crate::params::validate_parameter;
@@ -35,6 +36,10 @@ use chassis::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
+use patrol_msgs::lifecycle_msgs::{
+    ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
+    GetAvailableTransitionsResponse, GetStateResponse, TransitionEvent,
+};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
@@ -43,14 +48,15 @@ use planner_core::params::ParamError;
 use planner_io::parameters::ParameterFile;
 use ros2_client::{
     qos::{Durability, History},
-    MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, QosProfile, ServiceMapping,
+    MessageTypeName, NodeName, NodeOptions, ParameterValue, QosProfile, ServiceMapping,
     ServiceTypeName,
 };
+use ros_edge::naming::Naming;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
 
 /// Runs the node until Ctrl-C or SIGTERM.
-pub async fn run(file: ParameterFile) -> Result<()> {
+pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let mut signals = ros_edge::ShutdownSignals::new()?;
     let ParameterFile {
         planning,
@@ -79,6 +85,12 @@ pub async fn run(file: ParameterFile) -> Result<()> {
         odom: RwLock::new(None),
         follower: std::sync::Mutex::new(None),
         moving: AtomicBool::new(false),
+        // Without a lifecycle manager the node configures and activates itself.
+        lifecycle: RwLock::new(if params.autostart {
+            crate::lifecycle::State::Active
+        } else {
+            crate::lifecycle::State::Unconfigured
+        }),
     });
     let on_set = shared.clone();
     let options = NodeOptions::new()
@@ -108,34 +120,34 @@ pub async fn run(file: ParameterFile) -> Result<()> {
             Ok(())
         }));
     let (context, domain) = ros_edge::context()?;
-    let mut node = context.new_node(NodeName::new("/", "patrol_planner")?, options)?;
+    let mut node = context.new_node(NodeName::new(&naming.namespace, &naming.node)?, options)?;
     let spinner = tokio::spawn(node.spinner()?.spin());
     // Every task holding a DDS reader or writer, so that shutdown can end them before the
     // node and its participant go (otherwise RustDDS logs an error for each endpoint).
     let mut tasks = tokio::task::JoinSet::new();
     ros_edge::logging::forward_to_rosout(node.logging_handle());
 
+    // Every name goes through the command line's namespace and remaps (ros_edge::naming):
+    // relative names resolve in the namespace, `~/` ones in the node.
     let topic = |node: &mut ros2_client::Node,
-                 ns: &str,
                  name: &str,
                  pkg: &str,
                  ty: &str,
                  qos: &QosProfile|
      -> Result<_> {
-        Ok(node.create_topic(&Name::new(ns, name)?, MessageTypeName::new(pkg, ty), qos)?)
+        Ok(node.create_topic(&naming.name(name)?, MessageTypeName::new(pkg, ty), qos)?)
     };
     let latched = ros_edge::reliable(1, Durability::TransientLocal);
     let volatile = ros_edge::reliable(10, Durability::Volatile);
-    let map_topic = topic(&mut node, "/", "map", "nav_msgs", "OccupancyGrid", &latched)?;
+    let map_topic = topic(&mut node, "map", "nav_msgs", "OccupancyGrid", &latched)?;
     let map_pub =
         Arc::new(node.create_publisher::<OccupancyGrid>(&map_topic, Some(latched.clone()))?);
     let map_sub = node.create_subscription::<OccupancyGrid>(&map_topic, Some(latched.clone()))?;
-    let plan_topic = topic(&mut node, "/", "plan", "nav_msgs", "Path", &latched)?;
+    let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
     let diag_topic = topic(
         &mut node,
-        "/",
-        "diagnostics",
+        "/diagnostics",
         "diagnostic_msgs",
         "DiagnosticArray",
         &volatile,
@@ -145,8 +157,7 @@ pub async fn run(file: ParameterFile) -> Result<()> {
     let pareto_qos = ros_edge::reliable(1, Durability::Volatile);
     let pareto_topic = topic(
         &mut node,
-        "/patrol_planner",
-        "pareto",
+        "~/pareto",
         "visualization_msgs",
         "MarkerArray",
         &pareto_qos,
@@ -155,7 +166,6 @@ pub async fn run(file: ParameterFile) -> Result<()> {
         Arc::new(node.create_publisher::<MarkerArray>(&pareto_topic, Some(pareto_qos))?);
     let goal_topic = topic(
         &mut node,
-        "/",
         "goal_pose",
         "geometry_msgs",
         "PoseStamped",
@@ -164,7 +174,6 @@ pub async fn run(file: ParameterFile) -> Result<()> {
     let goal_sub = node.create_subscription::<PoseStamped>(&goal_topic, Some(volatile.clone()))?;
     let initial_topic = topic(
         &mut node,
-        "/",
         "initialpose",
         "geometry_msgs",
         "PoseWithCovarianceStamped",
@@ -174,7 +183,6 @@ pub async fn run(file: ParameterFile) -> Result<()> {
         .create_subscription::<PoseWithCovarianceStamped>(&initial_topic, Some(volatile.clone()))?;
     let amcl_topic = topic(
         &mut node,
-        "/",
         "amcl_pose",
         "geometry_msgs",
         "PoseWithCovarianceStamped",
@@ -183,7 +191,7 @@ pub async fn run(file: ParameterFile) -> Result<()> {
     let amcl_sub =
         node.create_subscription::<PoseWithCovarianceStamped>(&amcl_topic, Some(volatile.clone()))?;
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
-    let odom_topic = topic(&mut node, "/", "odom", "nav_msgs", "Odometry", &best_effort)?;
+    let odom_topic = topic(&mut node, "odom", "nav_msgs", "Odometry", &best_effort)?;
     let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort))?;
     // map -> odom as AMCL or a SLAM node broadcasts it, with tf2's listener QoS: /tf reliable
     // and volatile (depth 100), /tf_static reliable and transient local.
@@ -191,7 +199,7 @@ pub async fn run(file: ParameterFile) -> Result<()> {
     if params.track_map_to_odom {
         let tf_qos = ros_edge::reliable(100, Durability::Volatile);
         for (name, qos) in [("/tf", &tf_qos), ("/tf_static", &latched)] {
-            let t = topic(&mut node, "/", &name[1..], "tf2_msgs", "TFMessage", qos)?;
+            let t = topic(&mut node, name, "tf2_msgs", "TFMessage", qos)?;
             let sub = node.create_subscription::<TFMessage>(&t, Some(qos.clone()))?;
             tf_subs.push((name, sub));
         }
@@ -203,15 +211,69 @@ pub async fn run(file: ParameterFile) -> Result<()> {
     const REPLY_QUEUE: usize = 64;
     let server = node.create_server::<GetPlanRequest, GetPlanResponse>(
         ServiceMapping::Enhanced,
-        &Name::new("/patrol_planner", "make_plan")?,
+        &naming.name("~/make_plan")?,
         &ServiceTypeName::new("nav_msgs", "GetPlan"),
         ros_edge::reliable(REQUEST_QUEUE, Durability::Volatile),
         ros_edge::reliable(REPLY_QUEUE, Durability::Volatile),
     )?;
+    // The managed-node interface Nav2's lifecycle_manager drives (see lifecycle.rs).
+    let lifecycle_qos = ros_edge::reliable(10, Durability::Volatile);
+    macro_rules! lifecycle_server {
+        ($name:expr, $ty:expr, $req:ty, $resp:ty) => {
+            node.create_server::<$req, $resp>(
+                ServiceMapping::Enhanced,
+                &naming.name($name)?,
+                &ServiceTypeName::new("lifecycle_msgs", $ty),
+                lifecycle_qos.clone(),
+                lifecycle_qos.clone(),
+            )?
+        };
+    }
+    let change_state = lifecycle_server!(
+        "~/change_state",
+        "ChangeState",
+        ChangeStateRequest,
+        ChangeStateResponse
+    );
+    let get_state = lifecycle_server!("~/get_state", "GetState", EmptyRequest, GetStateResponse);
+    let get_states = lifecycle_server!(
+        "~/get_available_states",
+        "GetAvailableStates",
+        EmptyRequest,
+        GetAvailableStatesResponse
+    );
+    let transition_servers = [
+        (
+            lifecycle_server!(
+                "~/get_available_transitions",
+                "GetAvailableTransitions",
+                EmptyRequest,
+                GetAvailableTransitionsResponse
+            ),
+            false,
+        ),
+        (
+            lifecycle_server!(
+                "~/get_transition_graph",
+                "GetTransitionGraph",
+                EmptyRequest,
+                GetAvailableTransitionsResponse
+            ),
+            true,
+        ),
+    ];
+    let event_topic = topic(
+        &mut node,
+        "~/transition_event",
+        "lifecycle_msgs",
+        "TransitionEvent",
+        &lifecycle_qos,
+    )?;
+    let events =
+        node.create_publisher::<TransitionEvent>(&event_topic, Some(lifecycle_qos.clone()))?;
     let cmd_pub = if params.enable_stamped_cmd_vel {
         let t = topic(
             &mut node,
-            "/",
             "cmd_vel",
             "geometry_msgs",
             "TwistStamped",
@@ -219,20 +281,12 @@ pub async fn run(file: ParameterFile) -> Result<()> {
         )?;
         CmdVel::Stamped(Arc::new(node.create_publisher(&t, Some(volatile.clone()))?))
     } else {
-        let t = topic(
-            &mut node,
-            "/",
-            "cmd_vel",
-            "geometry_msgs",
-            "Twist",
-            &volatile,
-        )?;
+        let t = topic(&mut node, "cmd_vel", "geometry_msgs", "Twist", &volatile)?;
         CmdVel::Plain(Arc::new(node.create_publisher(&t, Some(volatile.clone()))?))
     };
     let limits_topic = topic(
         &mut node,
-        "/patrol_planner",
-        "twist_limits",
+        "~/twist_limits",
         "geometry_msgs",
         "Twist",
         &latched,
@@ -307,6 +361,20 @@ pub async fn run(file: ParameterFile) -> Result<()> {
         goal_tx,
     ));
     tasks.spawn(planning::plan_goals(shared.clone(), out.clone(), goal_rx));
+    tasks.spawn(lifecycle::serve::change_state(
+        shared.clone(),
+        change_state,
+        events,
+    ));
+    tasks.spawn(lifecycle::serve::get_state(shared.clone(), get_state));
+    tasks.spawn(lifecycle::serve::get_available_states(get_states));
+    for (server, whole_graph) in transition_servers {
+        tasks.spawn(lifecycle::serve::get_transitions(
+            shared.clone(),
+            server,
+            whole_graph,
+        ));
+    }
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),
         out.clone(),

@@ -34,6 +34,9 @@ pub fn plan(
     let live = s.live.read().expect("lock").clone();
     let seed = s.planning.seed.unwrap_or_else(rand::random);
     let failed = |f: Failure| Outcome::failed(live.planner, seed, f);
+    if let Some(refusal) = s.refusal() {
+        return failed(refusal);
+    }
     let Some(map) = s.map.read().expect("lock").clone() else {
         return failed(Failure::new(
             ResultCode::NoMap,

@@ -30,6 +30,8 @@ pub enum ResultCode {
     NoStartPose = 292,
     /// A newer goal replaced this one while it was planned.
     Cancelled = 293,
+    /// The node is not active (lifecycle): it plans only once activated.
+    NotActive = 294,
 }
 
 impl ResultCode {
@@ -55,6 +57,7 @@ impl ResultCode {
             ResultCode::NoMap => "NO_MAP",
             ResultCode::NoStartPose => "NO_START_POSE",
             ResultCode::Cancelled => "CANCELLED",
+            ResultCode::NotActive => "NOT_ACTIVE",
         }
     }
 }

@@ -46,6 +46,24 @@ pub struct Shared {
     pub follower: Mutex<Option<Follower>>,
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
+    /// The lifecycle state: only an active node plans and drives.
+    pub lifecycle: RwLock<crate::lifecycle::State>,
+}
+
+impl Shared {
+    /// Why the node cannot plan now, if it cannot: it is not active.
+    pub fn refusal(&self) -> Option<crate::result::Failure> {
+        let state = *self.lifecycle.read().expect("lock");
+        (state != crate::lifecycle::State::Active).then(|| {
+            crate::result::Failure::new(
+                crate::result::ResultCode::NotActive,
+                format!(
+                    "the node is {} (lifecycle): it plans once activated",
+                    state.label()
+                ),
+            )
+        })
+    }
 }
 
 /// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).

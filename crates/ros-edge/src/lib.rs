@@ -5,6 +5,7 @@
 //! `/rosout`, and reading a node's block of a ROS 2 parameter file (`parameters`).
 
 pub mod logging;
+pub mod naming;
 pub mod parameters;
 
 use anyhow::{Context as _, Result};
