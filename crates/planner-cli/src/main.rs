@@ -4,6 +4,7 @@
 mod bench;
 mod movingai;
 mod render;
+mod route;
 mod run;
 
 use anyhow::Result;
@@ -98,6 +99,10 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Order a patrol route's inspection points for the least driving time (turning in place
+    /// included) and plan every leg; print one JSON object (order, legs, total_length_m,
+    /// total_time_s, given_order_length_m, given_order_time_s, skipped, notes, ...).
+    Route(route::RouteArgs),
     /// List the planner names.
     Planners,
 }
@@ -145,6 +150,7 @@ fn run(cli: Cli) -> Result<()> {
             &out,
             r.common.config.as_deref(),
         ),
+        Command::Route(args) => route::run(&args),
         Command::Planners => {
             for name in planner_core::PlannerName::ALL {
                 println!("{name}");

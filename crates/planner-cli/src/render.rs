@@ -32,6 +32,21 @@ pub enum Layer {
         front: Vec<(f64, f64)>,
         chosen: (f64, f64),
     },
+    /// Numbered stops (a patrol route's points): a labelled disc with a tick towards its heading,
+    /// or a grey cross for a stop that was skipped.
+    Stops(Vec<Stop>),
+}
+
+/// One stop of a [`Layer::Stops`].
+pub struct Stop {
+    pub position: Point2,
+    /// Heading (rad) in the map frame.
+    pub yaw: f64,
+    /// Drawn in the disc (a number).
+    pub label: String,
+    /// The tooltip (name, why it was skipped).
+    pub title: String,
+    pub skipped: bool,
 }
 
 impl Layer {
@@ -44,6 +59,14 @@ impl Layer {
     pub fn endpoints(start: Point2, goal: Point2) -> Self {
         Layer::Endpoints { start, goal }
     }
+}
+
+/// Text made safe inside SVG elements and attributes (labels carry user-given names).
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 /// Side of the square Pareto panel, in pixels.
@@ -189,8 +212,9 @@ impl<'a> Drawing<'a> {
                         .collect();
                     let _ = writeln!(
                         s,
-                        r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="{stroke:.3}" stroke-linejoin="round" opacity="0.9"><title>{label}</title></polyline>"#,
-                        pts.join(" ")
+                        r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="{stroke:.3}" stroke-linejoin="round" opacity="0.9"><title>{}</title></polyline>"#,
+                        pts.join(" "),
+                        escape(label)
                     );
                     let len: f64 = points.windows(2).map(|p| (p[1] - p[0]).norm()).sum();
                     legend.push((
@@ -199,6 +223,50 @@ impl<'a> Drawing<'a> {
                     ));
                 }
                 Layer::Pareto { .. } => {}
+                Layer::Stops(stops) => {
+                    let r = stroke * 5.0;
+                    for stop in stops {
+                        let (x, y) = xy(stop.position);
+                        let title = escape(&stop.title);
+                        if stop.skipped {
+                            let _ = writeln!(
+                                s,
+                                r##"<path d="M{:.3},{:.3} l{d:.3},{d:.3} m0,-{d:.3} l-{d:.3},{d:.3}" stroke="#777" stroke-width="{:.3}"><title>{title}</title></path>"##,
+                                x - r,
+                                y - r,
+                                stroke * 0.8,
+                                d = 2.0 * r
+                            );
+                            continue;
+                        }
+                        let reach = 2.4 * r * info.resolution;
+                        let (hx, hy) = xy(stop.position
+                            + planner_core::geometry::Vector2::new(stop.yaw.cos(), stop.yaw.sin())
+                                * reach);
+                        let _ = writeln!(
+                            s,
+                            r##"<line x1="{x:.3}" y1="{y:.3}" x2="{hx:.3}" y2="{hy:.3}" stroke="#222" stroke-width="{:.3}"/>"##,
+                            stroke * 0.8
+                        );
+                        let _ = writeln!(
+                            s,
+                            r##"<circle cx="{x:.3}" cy="{y:.3}" r="{r:.3}" fill="#fff" stroke="#222" stroke-width="{:.3}"><title>{title}</title></circle>"##,
+                            stroke * 0.6
+                        );
+                        let _ = writeln!(
+                            s,
+                            r##"<text x="{x:.3}" y="{:.3}" font-size="{:.3}" font-family="sans-serif" text-anchor="middle">{}</text>"##,
+                            y + r * 0.4,
+                            r * 1.1,
+                            escape(&stop.label)
+                        );
+                    }
+                    legend.push((
+                        "#222".to_string(),
+                        "stops: visiting order, tick towards the heading; grey cross: skipped"
+                            .to_string(),
+                    ));
+                }
                 Layer::Endpoints { start, goal } => {
                     for (p, c, name) in [(start, "#00a000", "start"), (goal, "#d00000", "goal")] {
                         let (x, y) = xy(*p);
@@ -224,8 +292,9 @@ impl<'a> Drawing<'a> {
             );
             let _ = writeln!(
                 s,
-                r#"<text x="{:.3}" y="{y:.3}" font-size="{font:.3}" font-family="sans-serif">{text}</text>"#,
-                font * 1.6
+                r#"<text x="{:.3}" y="{y:.3}" font-size="{font:.3}" font-family="sans-serif">{}</text>"#,
+                font * 1.6,
+                escape(text)
             );
         }
         s.push_str("</svg>\n");

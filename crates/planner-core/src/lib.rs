@@ -13,6 +13,7 @@
 //!   (the patrol car paper's cat and particle swarms), [`colony`] (the substation paper's ant
 //!   colonies), [`genetic`] (the genetic algorithm paper's IMGA and a plain GA);
 //! - [`registry`]: the one list of planner names, and the builder that maps a name to a planner;
+//! - [`route`]: patrol routes, the visiting order of many inspection points and the legs between;
 //! - [`config`]: every parameter section in one struct; [`params`]: how each is checked.
 //!
 //! ```
@@ -38,6 +39,7 @@ pub mod grid;
 pub mod params;
 pub mod planner;
 pub mod registry;
+pub mod route;
 pub mod search;
 pub mod seed;
 pub mod swarm;

@@ -1,0 +1,146 @@
+//! `patrol-plan route`: the visiting order of a patrol route's inspection points and the legs
+//! between them (planner-core's `route` module), as one JSON object and optionally a picture.
+
+use crate::render::{Drawing, Layer, Stop};
+use crate::run::{load_config, Workspace};
+use crate::Common;
+use anyhow::{Context, Result};
+use planner_core::geometry::Point2;
+use planner_core::planner::{PlanError, Query};
+use planner_core::route::{plan_route, RouteFile, RouteOptions, RoutePlan, START_NAME};
+use planner_core::PlannerName;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct RouteArgs {
+    /// Map: map_server YAML, or a Moving AI `.map` (read with 1 m cells).
+    #[arg(long)]
+    map: PathBuf,
+    /// Route file (YAML): `points: [{name, x, y, yaw, dwell}, ...]` in map metres, radians and
+    /// seconds; optional `start: {x, y, yaw}` (default: the first point) and `home: NAME`.
+    #[arg(long)]
+    points: PathBuf,
+    /// The planner of the chosen legs (`patrol-plan planners` lists them); the order itself comes
+    /// from string-pulled grid paths. Each leg is planned with the config's `seed` (else 0).
+    #[arg(long, default_value = "any_angle")]
+    planner: PlannerName,
+    /// A closed loop: end back at the start.
+    #[arg(long = "loop")]
+    closed: bool,
+    /// End at this point (an open route); replaces the file's `home`.
+    #[arg(long, conflicts_with = "closed")]
+    home: Option<String>,
+    /// Also draw the map, every leg and the numbered points.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Serialize)]
+struct RouteOutput<'a> {
+    planner: PlannerName,
+    /// Wall time of the whole command's planning: leg matrix, order and legs (ms).
+    time_ms: f64,
+    #[serde(flatten)]
+    plan: &'a RoutePlan,
+}
+
+fn read_route(path: &Path) -> Result<RouteFile> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    RouteFile::parse(&bytes).with_context(|| path.display().to_string())
+}
+
+pub fn run(args: &RouteArgs) -> Result<()> {
+    let config = load_config(args.common.config.as_deref())?;
+    let seed = config.seed.unwrap_or(0);
+    let mut route = read_route(&args.points)?;
+    if args.home.is_some() {
+        route.home.clone_from(&args.home);
+    }
+    let ws = Workspace::load(&args.map, config)?;
+    let options = RouteOptions {
+        closed: args.closed,
+        ..RouteOptions::default()
+    };
+    // Each leg through the same path as `plan` (the config's time budget, smoothing and seed),
+    // exactly from point to point.
+    let mut legs = |from: Point2, to: Point2| -> Result<Vec<Point2>, PlanError> {
+        let query = Query {
+            start: from,
+            goal: to,
+            tolerance: 0.0,
+        };
+        let (result, _) = ws
+            .run(args.planner, &query, seed)
+            .map_err(|e| PlanError::InvalidInput(format!("{e:#}")))?;
+        Ok(result?.waypoints)
+    };
+    let t0 = Instant::now();
+    let plan = plan_route(&ws.grid, &route, &options, Some(&mut legs))
+        .with_context(|| format!("planning the route of {}", args.points.display()))?;
+    let out = RouteOutput {
+        planner: args.planner,
+        time_ms: t0.elapsed().as_secs_f64() * 1e3,
+        plan: &plan,
+    };
+    println!("{}", serde_json::to_string(&out)?);
+    for note in &plan.notes {
+        eprintln!("note: {note}");
+    }
+    if let Some(svg) = &args.svg {
+        std::fs::write(svg, draw(&ws, &route, &plan).to_svg())
+            .with_context(|| format!("writing {}", svg.display()))?;
+    }
+    Ok(())
+}
+
+/// The map, every leg in visiting order, the points numbered in that order (the start pose as
+/// `S`), and the skipped ones crossed out.
+fn draw<'a>(ws: &'a Workspace, route: &RouteFile, plan: &RoutePlan) -> Drawing<'a> {
+    let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
+    for (k, leg) in plan.legs.iter().enumerate() {
+        let label = format!(
+            "{}. {} -> {} ({:.1} s)",
+            k + 1,
+            leg.from,
+            leg.to,
+            leg.time_s
+        );
+        drawing.add(Layer::path(&label, &leg.waypoints));
+    }
+    let mut stops = Vec::new();
+    if let Some(s) = route.start {
+        stops.push(Stop {
+            position: Point2::new(s.x, s.y),
+            yaw: s.yaw,
+            label: "S".into(),
+            title: START_NAME.into(),
+            skipped: false,
+        });
+    }
+    for p in &route.points {
+        let position = Point2::new(p.x, p.y);
+        if let Some(k) = plan.order.iter().position(|name| *name == p.name) {
+            stops.push(Stop {
+                position,
+                yaw: p.yaw,
+                label: (k + 1).to_string(),
+                title: format!("{}. {} (dwell {} s)", k + 1, p.name, p.dwell),
+                skipped: false,
+            });
+        } else if let Some(s) = plan.skipped.iter().find(|s| s.name == p.name) {
+            stops.push(Stop {
+                position,
+                yaw: p.yaw,
+                label: String::new(),
+                title: format!("{} {}", s.name, s.reason),
+                skipped: true,
+            });
+        }
+    }
+    drawing.add(Layer::Stops(stops));
+    drawing
+}

@@ -1,0 +1,370 @@
+//! The leg matrix: a real path between every two reachable points of a route, from one
+//! multi-target sweep per point.
+//!
+//! A sweep is Dijkstra on the 8-connected planning grid (the one move rule of
+//! [`crate::grid::moves`], octile step lengths) from one point's cell, run until every target cell
+//! is settled, so one sweep gives the shortest grid walk to every other point at once. Each walk
+//! becomes a path from the exact point to the exact point, string-pulled by the delete operation
+//! ([`crate::grid::smoothing::delete_redundant`]) and stripped of collinear vertices: close to the
+//! any-angle length, and with the bends the car will really turn at.
+//!
+//! The sweep from the first node (the start) settles every target it can reach; the others are
+//! cut off from the start. The move rule is symmetric, so every reachable point reaches every
+//! other, and the sweep from node `a` only needs the nodes after it: the path `b -> a` is the path
+//! `a -> b` reversed, so each leg is computed once and driven either way (its time differs by the
+//! turns at its ends, see [`PathShape::reversed`]).
+
+use super::model::{DrivingModel, PathShape};
+use super::order::CostMatrix;
+use super::SkipReason;
+use crate::geometry::{Cell, Point2, NEIGHBOURS_8};
+use crate::grid::inflation::PlanningGrid;
+use crate::grid::metrics::drop_collinear;
+use crate::grid::moves::{allowed, step_length};
+use crate::grid::smoothing::delete_redundant;
+use rustc_hash::FxHashSet;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// The paths between the reachable nodes of a route.
+#[derive(Clone, Debug)]
+pub struct LegMatrix {
+    /// The nodes (indices into the positions given to [`LegMatrix::build`]) that are reachable
+    /// from node 0, in increasing order, node 0 first. Matrix indices are positions in this list.
+    pub nodes: Vec<usize>,
+    /// The nodes left out, each with why.
+    pub unreachable: Vec<(usize, SkipReason)>,
+    /// The cell of each matrix node.
+    cells: Vec<Cell>,
+    /// Upper triangle, row by row: the path (world metres) from matrix node `a` to `b > a`.
+    paths: Vec<Vec<Point2>>,
+    shapes: Vec<PathShape>,
+}
+
+impl LegMatrix {
+    /// Sweeps from every reachable node. Positions are world metres; node 0 is the start, and an
+    /// error says why it cannot be used (outside the map, or not free).
+    pub fn build(grid: &PlanningGrid, positions: &[Point2]) -> Result<Self, SkipReason> {
+        let info = grid.info();
+        let mut usable = Vec::new();
+        let mut unreachable = Vec::new();
+        for (k, &p) in positions.iter().enumerate() {
+            match info.world_to_cell(p) {
+                None => unreachable.push((k, SkipReason::OutsideMap)),
+                Some(c) if !grid.is_free(c) => unreachable.push((k, SkipReason::Occupied)),
+                Some(c) => usable.push((k, c)),
+            }
+        }
+        if let Some((0, reason)) = unreachable.first() {
+            return Err(*reason);
+        }
+        let mut sweeper = Sweeper::new(grid);
+        let source = usable[0].1;
+        let reached = sweeper.sweep(source, usable[1..].iter().map(|u| u.1));
+        let mut nodes = vec![0];
+        let mut cells = vec![source];
+        for (&(k, c), ok) in usable[1..].iter().zip(reached) {
+            if ok {
+                nodes.push(k);
+                cells.push(c);
+            } else {
+                unreachable.push((k, SkipReason::CutOff));
+            }
+        }
+        unreachable.sort_by_key(|u| u.0);
+        let n = nodes.len();
+        let grid_point = |k: usize| info.world_to_grid(positions[nodes[k]]);
+        let mut paths = Vec::with_capacity(n * n.saturating_sub(1) / 2);
+        for a in 0..n {
+            // The first sweep already settled every reachable node.
+            if a > 0 && a + 1 < n {
+                sweeper.sweep(cells[a], cells[a + 1..].iter().copied());
+            }
+            for (b, &cell) in cells.iter().enumerate().skip(a + 1) {
+                let mut points = vec![grid_point(a)];
+                points.extend(sweeper.walk_to(cell).into_iter().map(Cell::center));
+                points.push(grid_point(b));
+                let pulled = drop_collinear(&delete_redundant(grid, &points));
+                paths.push(
+                    pulled
+                        .into_iter()
+                        .map(|p| info.grid_to_world(p))
+                        .collect::<Vec<_>>(),
+                );
+            }
+        }
+        let shapes = paths.iter().map(|p| PathShape::of(p)).collect();
+        Ok(Self {
+            nodes,
+            unreachable,
+            cells,
+            paths,
+            shapes,
+        })
+    }
+
+    /// The number of reachable nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Whether two matrix nodes lie in one cell (their leg is the straight segment inside it).
+    pub fn same_cell(&self, a: usize, b: usize) -> bool {
+        self.cells[a] == self.cells[b]
+    }
+
+    fn slot(&self, a: usize, b: usize) -> usize {
+        debug_assert!(a < b && b < self.len());
+        let n = self.len();
+        a * n - a * (a + 1) / 2 + (b - a - 1)
+    }
+
+    /// The path (world metres) from matrix node `a` to `b`.
+    pub fn path(&self, a: usize, b: usize) -> Vec<Point2> {
+        match a.cmp(&b) {
+            std::cmp::Ordering::Less => self.paths[self.slot(a, b)].clone(),
+            std::cmp::Ordering::Greater => {
+                let mut p = self.paths[self.slot(b, a)].clone();
+                p.reverse();
+                p
+            }
+            std::cmp::Ordering::Equal => Vec::new(),
+        }
+    }
+
+    /// The shape of the path from `a` to `b` (`None` from a node to itself).
+    pub fn shape(&self, a: usize, b: usize) -> Option<PathShape> {
+        match a.cmp(&b) {
+            std::cmp::Ordering::Less => Some(self.shapes[self.slot(a, b)]),
+            std::cmp::Ordering::Greater => Some(self.shapes[self.slot(b, a)].reversed()),
+            std::cmp::Ordering::Equal => None,
+        }
+    }
+
+    /// Driving times between the nodes, given each matrix node's yaw: asymmetric, because a leg
+    /// driven the other way turns differently at its ends.
+    pub fn times(&self, yaws: &[f64], model: &DrivingModel) -> CostMatrix {
+        assert_eq!(yaws.len(), self.len(), "one yaw per matrix node");
+        CostMatrix::new(self.len(), |a, b| match self.shape(a, b) {
+            Some(s) => model.cost(&s, yaws[a], yaws[b]).time_s,
+            None => 0.0,
+        })
+    }
+}
+
+/// Dijkstra sweeps over one grid, reusing their buffers.
+struct Sweeper<'g> {
+    grid: &'g PlanningGrid,
+    /// Tentative distance (cells) per padded index.
+    g: Vec<f64>,
+    /// The padded index each settled cell was reached from.
+    parent: Vec<u32>,
+    source: usize,
+    heap: BinaryHeap<Reverse<(u64, u32)>>,
+}
+
+impl<'g> Sweeper<'g> {
+    fn new(grid: &'g PlanningGrid) -> Self {
+        let len = grid.padded_free().len();
+        Self {
+            grid,
+            g: vec![f64::INFINITY; len],
+            parent: vec![u32::MAX; len],
+            source: 0,
+            heap: BinaryHeap::new(),
+        }
+    }
+
+    fn stride(&self) -> usize {
+        self.grid.width() + 2
+    }
+
+    fn padded(&self, c: Cell) -> usize {
+        (c.y as usize + 1) * self.stride() + c.x as usize + 1
+    }
+
+    fn unpadded(&self, i: usize) -> Cell {
+        let s = self.stride();
+        Cell::new((i % s) as i32 - 1, (i / s) as i32 - 1)
+    }
+
+    /// Dijkstra from `source` (a free cell) until every target is settled or nothing is left to
+    /// settle; returns, per target, whether it was reached. Ties are broken by the smaller index,
+    /// so the walks are deterministic.
+    fn sweep(&mut self, source: Cell, targets: impl Iterator<Item = Cell>) -> Vec<bool> {
+        let targets: Vec<usize> = targets.map(|c| self.padded(c)).collect();
+        if targets.is_empty() {
+            return Vec::new();
+        }
+        let mut pending: FxHashSet<usize> = targets.iter().copied().collect();
+        let stride = self.stride() as isize;
+        let offsets: [isize; 8] = NEIGHBOURS_8.map(|(dx, dy)| dx as isize + dy as isize * stride);
+        let free = self.grid.padded_free();
+        self.g.fill(f64::INFINITY);
+        self.heap.clear();
+        self.source = self.padded(source);
+        self.g[self.source] = 0.0;
+        self.heap
+            .push(Reverse((0f64.to_bits(), self.source as u32)));
+        // Distances are non-negative, so their IEEE bits order like the numbers.
+        while let Some(Reverse((bits, index))) = self.heap.pop() {
+            let (gc, i) = (f64::from_bits(bits), index as usize);
+            if gc > self.g[i] {
+                continue;
+            }
+            if pending.remove(&i) && pending.is_empty() {
+                break;
+            }
+            for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
+                if !allowed(dx, dy, |x, y| {
+                    free[(i as isize + x as isize + y as isize * stride) as usize]
+                }) {
+                    continue;
+                }
+                let j = (i as isize + offsets[k]) as usize;
+                let ng = gc + step_length(dx, dy);
+                if ng < self.g[j] {
+                    self.g[j] = ng;
+                    self.parent[j] = index;
+                    self.heap.push(Reverse((ng.to_bits(), j as u32)));
+                }
+            }
+        }
+        targets.iter().map(|t| !pending.contains(t)).collect()
+    }
+
+    /// The cells of the walk from the last sweep's source to a target it settled.
+    fn walk_to(&self, target: Cell) -> Vec<Cell> {
+        let mut i = self.padded(target);
+        let mut cells = vec![target];
+        while i != self.source {
+            i = self.parent[i] as usize;
+            cells.push(self.unpadded(i));
+        }
+        cells.reverse();
+        cells
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::raycast::path_is_free;
+    use crate::planner::{solve, PlanContext, Query, SolveOptions};
+    use crate::search::astar::{astar_cells, cell_path_length, AStar};
+    use crate::test_support::{grid_from_rows, random_grid, rng};
+    use proptest::prelude::*;
+
+    fn centre(x: i32, y: i32) -> Point2 {
+        Cell::new(x, y).center()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// On random grids: a sweep reaches exactly what A* reaches, with A*'s optimal walk length;
+        /// every leg runs from point to point, is collision-free and never longer than the A*
+        /// staircase; the reverse leg is the same path.
+        #[test]
+        fn sweeps_agree_with_astar(seed in any::<u64>(), density in 0.0f64..0.35) {
+            let (grid, a, b) = random_grid(seed, 18, 14, density);
+            let (_, c, d) = random_grid(seed ^ 0x5eed, 18, 14, 0.0);
+            let points = [a, b, c, d].map(|c| c.center());
+            let mut r = rng(seed);
+            match LegMatrix::build(&grid, &points) {
+                Err(reason) => prop_assert!(reason != SkipReason::CutOff),
+                Ok(m) => {
+                    prop_assert_eq!(m.nodes[0], 0);
+                    for (x, &k) in m.nodes.iter().enumerate() {
+                        let ctx = PlanContext::never_interrupted(&mut r);
+                        let cell = |k: usize| Cell::containing(points[k]);
+                        let astar = astar_cells(&grid, cell(0), cell(k), &ctx);
+                        let length = astar.as_ref().map(|(c, _)| cell_path_length(c));
+                        prop_assert!(length.is_ok(), "node {} is in the matrix but A* finds no path", k);
+                        if x > 0 {
+                            let p = m.path(0, x);
+                            prop_assert_eq!(p[0], points[0]);
+                            prop_assert_eq!(*p.last().unwrap(), points[k]);
+                            prop_assert!(path_is_free(&grid, &p));
+                            prop_assert!(m.shape(0, x).unwrap().length <= length.unwrap() + 1e-9);
+                            let mut back = m.path(x, 0);
+                            back.reverse();
+                            prop_assert_eq!(back, p);
+                        }
+                    }
+                    for &(k, reason) in &m.unreachable {
+                        if reason == SkipReason::CutOff {
+                            let ctx = PlanContext::never_interrupted(&mut r);
+                            let cell = |k: usize| Cell::containing(points[k]);
+                            prop_assert!(astar_cells(&grid, cell(0), cell(k), &ctx).is_err());
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn each_unusable_node_has_its_reason() {
+        // Row 0 is the bottom row. The right column is walled off by the `#` column.
+        let grid = grid_from_rows(&["...#.", "...#.", ".#.#.", "...#."]);
+        let points = [
+            centre(0, 0),
+            centre(2, 3),
+            centre(1, 1),
+            centre(4, 2),
+            Point2::new(-0.5, 1.0),
+            Point2::new(9.0, 1.0),
+        ];
+        let m = LegMatrix::build(&grid, &points).unwrap();
+        assert_eq!(m.nodes, vec![0, 1]);
+        assert_eq!(
+            m.unreachable,
+            vec![
+                (2, SkipReason::Occupied),
+                (3, SkipReason::CutOff),
+                (4, SkipReason::OutsideMap),
+                (5, SkipReason::OutsideMap)
+            ]
+        );
+        assert_eq!(
+            LegMatrix::build(&grid, &[centre(1, 1), centre(0, 0)]).unwrap_err(),
+            SkipReason::Occupied
+        );
+    }
+
+    #[test]
+    fn a_leg_is_string_pulled_and_as_long_as_any_angle_on_an_open_floor() {
+        let grid = grid_from_rows(&["##......", "........", "........", "........"]);
+        let (s, g) = (Point2::new(0.5, 0.5), Point2::new(7.5, 3.5));
+        let m = LegMatrix::build(&grid, &[s, g]).unwrap();
+        let p = m.path(0, 1);
+        let mut r = rng(0);
+        let q = Query {
+            start: s,
+            goal: g,
+            tolerance: 0.0,
+        };
+        let astar = solve(
+            &AStar,
+            &grid,
+            &q,
+            SolveOptions::default(),
+            &mut PlanContext::never_interrupted(&mut r),
+        )
+        .unwrap();
+        assert_eq!(p, vec![s, g], "the straight line is free");
+        assert!(m.shape(0, 1).unwrap().length < astar.metrics.length_m);
+        // A time matrix is asymmetric when the yaws make it so: facing the goal from the start,
+        // and facing away from the start at the goal, costs no turn one way and two U-turns back.
+        let heading = (g - s).y.atan2((g - s).x);
+        let t = m.times(&[heading, heading], &DrivingModel::default());
+        let straight = (g - s).norm() / 0.6;
+        assert!((t.get(0, 1) - straight).abs() < 1e-9);
+        let two_u_turns = 2.0 * std::f64::consts::PI / 0.4;
+        assert!((t.get(1, 0) - straight - two_u_turns).abs() < 1e-9);
+    }
+}
