@@ -281,6 +281,64 @@ pub mod nav_msgs {
     );
 }
 
+/// nav2_msgs (ROS 2 Jazzy): the planner server's actions and path check, so the node can stand
+/// in for Nav2's planner_server. The action wrappers (goal id, status) are ros2-client's.
+pub mod nav2_msgs {
+    use super::builtin_interfaces::Duration;
+    use super::geometry_msgs::PoseStamped;
+    use super::nav_msgs::Path;
+    use super::*;
+    /// nav2_msgs/action/ComputePathToPose goal
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ComputePathToPoseGoal {
+        pub goal: PoseStamped,
+        pub start: PoseStamped,
+        pub planner_id: String,
+        pub use_start: bool,
+    }
+    /// nav2_msgs/action/ComputePathToPose result (and ComputePathThroughPoses': same fields)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ComputePathResult {
+        pub path: Path,
+        pub planning_time: Duration,
+        pub error_code: u16,
+        pub error_msg: String,
+    }
+    /// The empty feedback of both planner actions: rosidl gives an empty structure one
+    /// placeholder byte.
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct EmptyFeedback {
+        pub structure_needs_at_least_one_member: u8,
+    }
+    /// nav2_msgs/action/ComputePathThroughPoses goal
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ComputePathThroughPosesGoal {
+        pub goals: Vec<PoseStamped>,
+        pub start: PoseStamped,
+        pub planner_id: String,
+        pub use_start: bool,
+    }
+    /// nav2_msgs/srv/IsPathValid request
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct IsPathValidRequest {
+        pub path: Path,
+    }
+    /// nav2_msgs/srv/IsPathValid response
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct IsPathValidResponse {
+        pub is_valid: bool,
+        pub invalid_pose_indices: Vec<i32>,
+    }
+    messages!(
+        ComputePathToPoseGoal,
+        ComputePathResult,
+        EmptyFeedback,
+        ComputePathThroughPosesGoal,
+        IsPathValidRequest,
+        IsPathValidResponse
+    );
+}
+
 /// lifecycle_msgs: the managed-node interface (ROS 2 design "Managed nodes") that Nav2's
 /// lifecycle_manager drives.
 pub mod lifecycle_msgs {

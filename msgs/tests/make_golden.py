@@ -11,6 +11,11 @@ from nav_msgs.msg import OccupancyGrid, Path, Odometry
 from nav_msgs.srv import GetPlan
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from visualization_msgs.msg import Marker, MarkerArray
+from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
+from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
+# nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
+from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose
+from nav2_msgs.srv import IsPathValid
 
 
 def header(frame="map"):
@@ -79,6 +84,27 @@ def messages():
     out["TRANSFORM_STAMPED"] = TransformStamped(
         header=header("odom"), child_frame_id="base_link",
         transform=Transform(translation=Vector3(x=1.5, y=-2.25, z=0.0), rotation=Quaternion(x=0.0, y=0.0, z=0.6, w=0.8)))
+    out["TRANSITION_EVENT"] = TransitionEvent(
+        timestamp=1234567890123, transition=Transition(id=3, label="activate"),
+        start_state=State(id=2, label="inactive"), goal_state=State(id=3, label="active"))
+    out["CHANGE_STATE_REQUEST"] = ChangeState.Request(transition=Transition(id=1, label="configure"))
+    out["CHANGE_STATE_RESPONSE"] = ChangeState.Response(success=True)
+    out["GET_STATE_REQUEST"] = GetState.Request()
+    out["GET_STATE_RESPONSE"] = GetState.Response(current_state=State(id=3, label="active"))
+    out["GET_AVAILABLE_TRANSITIONS_RESPONSE"] = GetAvailableTransitions.Response(available_transitions=[
+        TransitionDescription(transition=Transition(id=4, label="deactivate"),
+                              start_state=State(id=3, label="active"), goal_state=State(id=2, label="inactive"))])
+    out["COMPUTE_PATH_TO_POSE_GOAL"] = ComputePathToPose.Goal(
+        goal=pose_stamped(9.5, 3.5), start=pose_stamped(0.5, 0.5), planner_id="mocmcso", use_start=True)
+    r = ComputePathToPose.Result(path=Path(header=header(), poses=[pose_stamped(0.5, 0.5)]), error_code=206,
+                                 error_msg="goal occupied")
+    r.planning_time.sec, r.planning_time.nanosec = 2, 500
+    out["COMPUTE_PATH_RESULT"] = r
+    out["COMPUTE_PATH_FEEDBACK"] = ComputePathToPose.Feedback()
+    out["COMPUTE_PATH_THROUGH_POSES_GOAL"] = ComputePathThroughPoses.Goal(
+        goals=[pose_stamped(1.0, 2.0), pose_stamped(3.0, 4.0)], start=pose_stamped(0.5, 0.5), planner_id="", use_start=False)
+    out["IS_PATH_VALID_REQUEST"] = IsPathValid.Request(path=Path(header=header(), poses=[pose_stamped(1.0, 2.0)]))
+    out["IS_PATH_VALID_RESPONSE"] = IsPathValid.Response(is_valid=False, invalid_pose_indices=[3, 7])
     return out
 
 

@@ -55,6 +55,12 @@ pub struct NodeParams {
     /// false when Nav2's lifecycle_manager manages the node: it then starts unconfigured and
     /// plans only once activated.
     pub autostart: bool,
+    /// Nav2's `use_final_approach_orientation`: the last pose of a path faces along its last
+    /// segment (the direction the robot arrives from) instead of the goal's own heading.
+    pub use_final_approach_orientation: bool,
+    /// Nav2's `expected_planner_frequency` (Hz): a plan that takes longer than its period is
+    /// logged as a warning, as planner_server logs a missed rate. 0: no warning.
+    pub expected_planner_frequency: f64,
 }
 
 impl Default for NodeParams {
@@ -74,6 +80,8 @@ impl Default for NodeParams {
             control_rate_hz: 20.0,
             pose_timeout: 0.5,
             autostart: true,
+            use_final_approach_orientation: false,
+            expected_planner_frequency: 1.0,
         }
     }
 }
@@ -91,6 +99,10 @@ impl NodeParams {
                 "twist_limits, control_rate_hz (at most 200) and pose_timeout must be finite and positive"
                     .into(),
             );
+        }
+        if !(self.expected_planner_frequency.is_finite() && self.expected_planner_frequency >= 0.0)
+        {
+            return Err("expected_planner_frequency must be finite and not negative".into());
         }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
             return Err("map_to_odom must be finite".into());

@@ -8,7 +8,7 @@ use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalSlot, Shared};
-use log::{error, log, warn, Level};
+use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -19,13 +19,24 @@ use std::time::Instant;
 use tokio::sync::watch;
 
 /// `/map`: each valid map replaces the current one (also while a plan runs: that plan keeps the
-/// map it started with); a malformed one is refused and the last good map kept.
-pub async fn receive_maps(s: Arc<Shared>, o: Outputs, sub: Subscription<OccupancyGrid>) {
+/// map it started with); a malformed one is refused and the last good map kept. While a plan is
+/// being followed, the new map is checked against the rest of it: the goal is planned again
+/// (through `slot`, as a new goal) only when the map blocks the path, and the path is kept
+/// otherwise (Nav2's replanning on an invalid path, navigation2 PR 2841).
+pub async fn receive_maps(
+    s: Arc<Shared>,
+    o: Outputs,
+    sub: Subscription<OccupancyGrid>,
+    slot: watch::Sender<GoalSlot>,
+) {
     loop {
         match sub.async_take().await {
             Ok((msg, _)) => {
                 match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
-                    Ok(Ok(map)) => install_map(&s, map, "/map").await,
+                    Ok(Ok(map)) => {
+                        install_map(&s, map, "/map").await;
+                        replan_if_blocked(&s, &slot);
+                    }
                     Ok(Err(e)) => {
                         let f = Failure::new(
                             ResultCode::InvalidInput,
@@ -40,6 +51,52 @@ pub async fn receive_maps(s: Arc<Shared>, o: Outputs, sub: Subscription<Occupanc
             Err(e) => warn!("/map: {e:?}"),
         }
     }
+}
+
+/// After a new map: the part of the followed path still ahead of the robot (from the pose
+/// nearest it) is checked with `is_path_valid`'s rule; if the map blocks it, its goal goes back
+/// into the goal slot and is planned again from where the robot is.
+fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>) {
+    if s.follower.lock().expect("lock").is_none() {
+        return;
+    }
+    let Some((goal, path)) = s.followed.lock().expect("lock").clone() else {
+        return;
+    };
+    let Some(map) = s.map.read().expect("lock").clone() else {
+        return;
+    };
+    let robot = s.odom.read().expect("lock").map(|(p, _)| (p.x, p.y));
+    let nearest = robot.map_or(0, |(x, y)| {
+        path.iter()
+            .enumerate()
+            .min_by(|a, b| {
+                let d = |p: &(f64, f64)| (p.0 - x).hypot(p.1 - y);
+                d(a.1).total_cmp(&d(b.1))
+            })
+            .map_or(0, |(i, _)| i)
+    });
+    // The robot's own pose may be inside the new map's inflated band; the path ahead must not be.
+    let ahead = &path[(nearest + 1).min(path.len())..];
+    let invalid = crate::actions::invalid_poses(&map.grid, ahead);
+    if let Some(first) = invalid.first() {
+        info!(
+            "the new map blocks the path being followed ({} of its poses ahead, the first {:.2} m on): replanning",
+            invalid.len(),
+            path_length(&ahead[..=*first as usize])
+        );
+        let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
+        let _ = slot.send(Some((id, goal)));
+    } else {
+        info!("new map: the path being followed is still free, kept");
+    }
+}
+
+fn path_length(points: &[(f64, f64)]) -> f64 {
+    points
+        .windows(2)
+        .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+        .sum()
 }
 
 /// `/initialpose` or `/amcl_pose` (`name`): the start of the next plan, and (with

@@ -5,6 +5,7 @@
 //! it). Default: `config/planner.yaml` if it exists, else built-in defaults. Log level from
 //! `RUST_LOG` (default info).
 
+mod actions;
 mod convert;
 mod follow;
 mod inputs;

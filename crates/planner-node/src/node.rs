@@ -22,6 +22,7 @@
 //! Failed goals publish nothing on `/plan` (Nav2's planner server does the same) but always a
 //! `/diagnostics` status with the reason.
 
+use crate::actions;
 use crate::convert;
 use crate::follow;
 use crate::inputs;
@@ -40,16 +41,21 @@ use patrol_msgs::lifecycle_msgs::{
     ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
     GetAvailableTransitionsResponse, GetStateResponse, TransitionEvent,
 };
+use patrol_msgs::nav2_msgs::{
+    ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
+    IsPathValidRequest, IsPathValidResponse,
+};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::geometry::Pose2;
 use planner_core::params::ParamError;
 use planner_io::parameters::ParameterFile;
+use ros2_client::action::{ActionServerQosPolicies, AsyncActionServer};
 use ros2_client::{
     qos::{Durability, History},
-    MessageTypeName, NodeName, NodeOptions, ParameterValue, QosProfile, ServiceMapping,
-    ServiceTypeName,
+    ActionTypeName, MessageTypeName, NodeName, NodeOptions, ParameterValue, QosProfile,
+    ServiceMapping, ServiceTypeName,
 };
 use ros_edge::naming::Naming;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -84,6 +90,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         )),
         odom: RwLock::new(None),
         follower: std::sync::Mutex::new(None),
+        followed: std::sync::Mutex::new(None),
         moving: AtomicBool::new(false),
         // Without a lifecycle manager the node configures and activates itself.
         lifecycle: RwLock::new(if params.autostart {
@@ -216,6 +223,38 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         ros_edge::reliable(REQUEST_QUEUE, Durability::Volatile),
         ros_edge::reliable(REPLY_QUEUE, Durability::Volatile),
     )?;
+    // Nav2's planner-server interface (see actions.rs): two actions and is_path_valid.
+    let action_qos = || ActionServerQosPolicies {
+        goal_service: ros_edge::reliable(10, Durability::Volatile),
+        result_service: ros_edge::reliable(10, Durability::Volatile),
+        cancel_service: ros_edge::reliable(10, Durability::Volatile),
+        feedback_publisher: ros_edge::reliable(10, Durability::Volatile),
+        // As rcl_action's status QoS: the latest status array, latched.
+        status_publisher: ros_edge::reliable(1, Durability::TransientLocal),
+    };
+    let to_pose = AsyncActionServer::new(
+        node.create_action_server::<ComputePathToPoseGoal, ComputePathResult, EmptyFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("compute_path_to_pose")?,
+            &ActionTypeName::new("nav2_msgs", "ComputePathToPose"),
+            action_qos(),
+        )?,
+    );
+    let through_poses = AsyncActionServer::new(
+        node.create_action_server::<ComputePathThroughPosesGoal, ComputePathResult, EmptyFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("compute_path_through_poses")?,
+            &ActionTypeName::new("nav2_msgs", "ComputePathThroughPoses"),
+            action_qos(),
+        )?,
+    );
+    let is_path_valid = node.create_server::<IsPathValidRequest, IsPathValidResponse>(
+        ServiceMapping::Enhanced,
+        &naming.name("is_path_valid")?,
+        &ServiceTypeName::new("nav2_msgs", "IsPathValid"),
+        ros_edge::reliable(10, Durability::Volatile),
+        ros_edge::reliable(10, Durability::Volatile),
+    )?;
     // The managed-node interface Nav2's lifecycle_manager drives (see lifecycle.rs).
     let lifecycle_qos = ros_edge::reliable(10, Durability::Volatile);
     macro_rules! lifecycle_server {
@@ -338,7 +377,13 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         }
     }
 
-    tasks.spawn(inputs::receive_maps(shared.clone(), out.clone(), map_sub));
+    let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
+    tasks.spawn(inputs::receive_maps(
+        shared.clone(),
+        out.clone(),
+        map_sub,
+        goal_tx.clone(),
+    ));
     tasks.spawn(inputs::receive_start_poses(
         shared.clone(),
         "/initialpose",
@@ -353,7 +398,6 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     for (name, sub) in tf_subs {
         tasks.spawn(inputs::receive_transforms(shared.clone(), name, sub));
     }
-    let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
     tasks.spawn(inputs::receive_goals(
         shared.clone(),
         out.clone(),
@@ -375,6 +419,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             whole_graph,
         ));
     }
+    tasks.spawn(actions::serve(shared.clone(), out.clone(), to_pose));
+    tasks.spawn(actions::serve(shared.clone(), out.clone(), through_poses));
+    tasks.spawn(actions::serve_is_path_valid(shared.clone(), is_path_valid));
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),
         out.clone(),

@@ -73,6 +73,13 @@ impl Outputs {
     /// `/diagnostics` for one answer, labelled with the planner that gave it.
     pub async fn diagnose(&self, s: &Shared, outcome: &Outcome) {
         let (planner, seed, elapsed_ms) = (outcome.planner, outcome.seed, outcome.elapsed_ms);
+        let f = s.params.expected_planner_frequency;
+        if f > 0.0 && elapsed_ms > 1e3 / f {
+            warn!(
+                "planner loop missed its desired rate of {f:.4} Hz: the plan took {elapsed_ms:.1} ms ({:.4} Hz)",
+                1e3 / elapsed_ms
+            );
+        }
         let result = outcome.result.as_ref().map(|(p, _)| p);
         // The one place every answer is logged (terminal and /rosout) with its reason.
         match result {
@@ -91,7 +98,12 @@ impl Outputs {
     /// A plan as nav_msgs/Path, densified at the resolution of the map it was planned on (not
     /// the current one: a map may have replaced it meanwhile).
     pub fn path(&self, s: &Shared, plan: &Plan, goal_yaw: f64) -> Path {
-        convert::path_msg(&plan.waypoints, goal_yaw, plan.resolution, self.header(s))
+        let yaw = final_yaw(
+            s.params.use_final_approach_orientation,
+            &plan.waypoints,
+            goal_yaw,
+        );
+        convert::path_msg(&plan.waypoints, yaw, plan.resolution, self.header(s))
     }
 
     /// A goal's answer: `/plan` (on success), the Pareto markers, and `/diagnostics`. Returns the
@@ -101,20 +113,57 @@ impl Outputs {
         if let Ok((plan, goal_yaw)) = &outcome.result {
             let path = self.path(s, plan, *goal_yaw);
             published = Some(path.clone());
-            if let Err(e) = self.plan.async_publish(path).await {
-                warn!("/plan: {e:?}");
-            }
-            if s.params.publish_pareto && !plan.pareto.is_empty() {
-                if let Err(e) = self
-                    .pareto
-                    .async_publish(convert::pareto_markers(plan, self.header(s)))
-                    .await
-                {
-                    warn!("/patrol_planner/pareto: {e:?}");
-                }
-            }
+            self.publish_plan(s, path, plan).await;
         }
         self.diagnose(s, outcome).await;
         published
+    }
+
+    /// `/plan` and, for a multi-objective planner, its front on `~/pareto`.
+    pub async fn publish_plan(&self, s: &Shared, path: Path, plan: &Plan) {
+        if let Err(e) = self.plan.async_publish(path).await {
+            warn!("/plan: {e:?}");
+        }
+        if s.params.publish_pareto && !plan.pareto.is_empty() {
+            if let Err(e) = self
+                .pareto
+                .async_publish(convert::pareto_markers(plan, self.header(s)))
+                .await
+            {
+                warn!("pareto: {e:?}");
+            }
+        }
+    }
+}
+
+/// The heading of a path's last pose: the goal's, or with `use_final_approach_orientation` the
+/// direction of the last segment (Nav2's option, for goals whose heading the robot should not
+/// turn to at the end).
+pub fn final_yaw(
+    use_approach: bool,
+    waypoints: &[planner_core::geometry::Point2],
+    goal_yaw: f64,
+) -> f64 {
+    match waypoints {
+        [.., a, b] if use_approach && a != b => (b.y - a.y).atan2(b.x - a.x),
+        _ => goal_yaw,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::final_yaw;
+    use planner_core::geometry::Point2;
+
+    #[test]
+    fn the_final_approach_orientation_faces_along_the_last_segment() {
+        let wp = [
+            Point2::new(0.0, 0.0),
+            Point2::new(1.0, 0.0),
+            Point2::new(1.0, 2.0),
+        ];
+        assert_eq!(final_yaw(false, &wp, 0.3), 0.3);
+        assert!((final_yaw(true, &wp, 0.3) - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert_eq!(final_yaw(true, &wp[..1], 0.3), 0.3);
     }
 }

@@ -14,7 +14,7 @@ use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::GridMap;
 use planner_core::grid::PlanningGrid;
 use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query, SolveOptions};
-use planner_core::registry;
+use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use ros2_client::Server;
 use std::sync::atomic::Ordering;
@@ -22,18 +22,31 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::watch;
 
-/// Plans on the current map with the current settings (blocking). `goal_id` makes the plan
-/// stop when a newer goal arrives.
-pub fn plan(
-    s: &Shared,
-    start: Pose2,
-    goal: Pose2,
-    tolerance: f64,
-    goal_id: Option<u64>,
-) -> Outcome {
+/// One planning request, whatever it came from (a goal, GetPlan, an action).
+pub struct Request<'a> {
+    pub start: Pose2,
+    pub goal: Pose2,
+    /// How far (m) an occupied goal may move to a free cell.
+    pub tolerance: f64,
+    /// The planner to use (an action's `planner_id`); `None`: the `planner` parameter.
+    pub planner: Option<PlannerName>,
+    /// Whether the caller has given the request up (a newer goal, an action's cancel).
+    pub cancelled: &'a (dyn Fn() -> bool + Sync),
+}
+
+/// Plans on the current map with the current settings (blocking).
+pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
+    let Request {
+        start,
+        goal,
+        tolerance,
+        planner,
+        cancelled,
+    } = request;
     let live = s.live.read().expect("lock").clone();
+    let chosen = planner.unwrap_or(live.planner);
     let seed = s.planning.seed.unwrap_or_else(rand::random);
-    let failed = |f: Failure| Outcome::failed(live.planner, seed, f);
+    let failed = |f: Failure| Outcome::failed(chosen, seed, f);
     if let Some(refusal) = s.refusal() {
         return failed(refusal);
     }
@@ -44,7 +57,7 @@ pub fn plan(
         ));
     };
     let config = PlannerConfig {
-        planner: live.planner,
+        planner: chosen,
         ..s.planning.clone()
     };
     let planner = match registry::build(&config) {
@@ -55,7 +68,7 @@ pub fn plan(
     let deadline = (live.max_planning_time > 0.0)
         .then(|| t0 + Duration::from_secs_f64(live.max_planning_time));
     let interrupt = || {
-        if goal_id.is_some_and(|id| s.goals.load(Ordering::SeqCst) != id) {
+        if cancelled() {
             Some(Interrupt::Cancelled)
         } else if deadline.is_some_and(|d| Instant::now() >= d) {
             Some(Interrupt::Deadline)
@@ -80,16 +93,25 @@ pub fn plan(
         &mut ctx,
     );
     let elapsed_ms = t0.elapsed().as_secs_f64() * 1e3;
+    // An anytime planner interrupted by a cancel returns its best path so far; the caller has
+    // given the request up, so that path is not the answer.
+    let result = match result {
+        Ok(plan) if cancelled() => {
+            drop(plan);
+            Err(planner_core::PlanError::Cancelled)
+        }
+        other => other,
+    };
     match result {
         // Logged where the answer is published (Outputs::diagnose), with every other outcome.
         Ok(plan) => Outcome {
-            planner: live.planner,
+            planner: chosen,
             result: Ok((plan, goal.yaw)),
             seed,
             elapsed_ms,
         },
         Err(e) => Outcome {
-            planner: live.planner,
+            planner: chosen,
             result: Err(Failure::from(e)),
             seed,
             elapsed_ms,
@@ -146,14 +168,25 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
         s.live.read().expect("lock").tolerance
     };
     let s2 = s.clone();
-    tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, None))
-        .await
-        .unwrap_or_else(|e| failed(task_failure(e)))
+    tokio::task::spawn_blocking(move || {
+        plan(
+            &s2,
+            Request {
+                start,
+                goal,
+                tolerance,
+                planner: None,
+                cancelled: &|| false,
+            },
+        )
+    })
+    .await
+    .unwrap_or_else(|e| failed(task_failure(e)))
 }
 
 /// A planning task that did not return: a panic in a planner is a bug, never silent. It is
 /// logged as an error and answered as UNKNOWN with the panic's message, and the node goes on.
-fn task_failure(e: tokio::task::JoinError) -> Failure {
+pub fn task_failure(e: tokio::task::JoinError) -> Failure {
     let reason = match e.try_into_panic() {
         Ok(panic) => panic
             .downcast_ref::<&str>()
@@ -193,10 +226,21 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         let tolerance = s.live.read().expect("lock").tolerance;
         let s2 = s.clone();
         let planner = s.live.read().expect("lock").planner;
-        let outcome =
-            tokio::task::spawn_blocking(move || plan(&s2, start, goal, tolerance, Some(id)))
-                .await
-                .unwrap_or_else(|e| Outcome::failed(planner, 0, task_failure(e)));
+        let outcome = tokio::task::spawn_blocking(move || {
+            let newer_goal = || s2.goals.load(Ordering::SeqCst) != id;
+            plan(
+                &s2,
+                Request {
+                    start,
+                    goal,
+                    tolerance,
+                    planner: None,
+                    cancelled: &newer_goal,
+                },
+            )
+        })
+        .await
+        .unwrap_or_else(|e| Outcome::failed(planner, 0, task_failure(e)));
         if matches!(&outcome.result, Err(f) if f.code == ResultCode::Cancelled) {
             info!("plan for goal {id} cancelled by a newer goal");
             continue;
@@ -205,18 +249,20 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         if s.params.follow_plan {
             // A new plan replaces the one being followed; a failed goal stops the robot (the
             // follower loop brakes it within the acceleration limits).
-            let next = path.and_then(|p| {
-                let pts = p
-                    .poses
+            let pts: Option<Vec<(f64, f64)>> = path.map(|p| {
+                p.poses
                     .iter()
                     .map(|q| (q.pose.position.x, q.pose.position.y))
-                    .collect();
+                    .collect()
+            });
+            let next = pts.clone().and_then(|pts| {
                 Follower::new(
                     s.params.follower,
                     pts,
                     outcome.result.as_ref().map_or(0.0, |r| r.1),
                 )
             });
+            *s.followed.lock().expect("lock") = pts.filter(|_| next.is_some()).map(|p| (goal, p));
             *s.follower.lock().expect("lock") = next;
         }
     }

@@ -44,6 +44,9 @@ pub struct Shared {
     pub odom: RwLock<Option<(Pose2, Instant)>>,
     /// The plan being followed, if any.
     pub follower: Mutex<Option<Follower>>,
+    /// The goal and path (map metres) of the plan being followed: checked again when a new
+    /// map arrives, and replanned only when the new map blocks it.
+    pub followed: Mutex<Option<Followed>>,
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
     /// The lifecycle state: only an active node plans and drives.
@@ -65,6 +68,9 @@ impl Shared {
         })
     }
 }
+
+/// A followed plan's goal and its path (map metres).
+pub type Followed = (Pose2, Vec<(f64, f64)>);
 
 /// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
 pub type GoalSlot = Option<(u64, Pose2)>;

@@ -1,0 +1,480 @@
+//! Nav2's planner-server actions, so bt_navigator and nav2_simple_commander (`getPath`,
+//! `getPathThroughPoses`) can use this node in place of planner_server:
+//! `compute_path_to_pose` and `compute_path_through_poses` (nav2_msgs, Jazzy), with Nav2's error
+//! codes and messages, cancel, and preemption as planner_server does them (a newer goal ends the
+//! running one, which is aborted). Each answer also goes out on `/plan` and `/diagnostics`, as a
+//! goal on `/goal_pose` does; the actions plan only, they do not drive.
+
+use crate::outputs::Outputs;
+use crate::planning::{self, Request};
+use crate::result::{Failure, Outcome, ResultCode};
+use crate::state::Shared;
+use log::{info, warn};
+use patrol_msgs::builtin_interfaces::Duration;
+use patrol_msgs::geometry_msgs::PoseStamped;
+use patrol_msgs::nav2_msgs::{
+    ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
+};
+use patrol_msgs::nav_msgs::Path;
+use planner_core::geometry::Pose2;
+use planner_core::PlannerName;
+use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use ros2_client::action_msgs::GoalId;
+use ros2_client::Message;
+use std::collections::BTreeSet;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// What the two planner actions' goals have in common.
+pub trait PlannerGoal: Message + Clone + Send + Sync + 'static {
+    /// The poses to pass through, in order (the last is the goal).
+    fn poses(&self) -> &[PoseStamped];
+    fn start(&self) -> &PoseStamped;
+    fn planner_id(&self) -> &str;
+    fn use_start(&self) -> bool;
+    /// The action's error-code base: 200 for ComputePathToPose, 300 for ComputePathThroughPoses.
+    const CODE_BASE: u16;
+    /// The action's name, for logs.
+    const NAME: &'static str;
+}
+
+impl PlannerGoal for ComputePathToPoseGoal {
+    fn poses(&self) -> &[PoseStamped] {
+        std::slice::from_ref(&self.goal)
+    }
+    fn start(&self) -> &PoseStamped {
+        &self.start
+    }
+    fn planner_id(&self) -> &str {
+        &self.planner_id
+    }
+    fn use_start(&self) -> bool {
+        self.use_start
+    }
+    const CODE_BASE: u16 = 200;
+    const NAME: &'static str = "compute_path_to_pose";
+}
+
+impl PlannerGoal for ComputePathThroughPosesGoal {
+    fn poses(&self) -> &[PoseStamped] {
+        &self.goals
+    }
+    fn start(&self) -> &PoseStamped {
+        &self.start
+    }
+    fn planner_id(&self) -> &str {
+        &self.planner_id
+    }
+    fn use_start(&self) -> bool {
+        self.use_start
+    }
+    const CODE_BASE: u16 = 300;
+    const NAME: &'static str = "compute_path_through_poses";
+}
+
+/// ComputePathThroughPoses' NO_VIAPOINTS_GIVEN.
+const NO_VIAPOINTS_GIVEN: u16 = 309;
+
+/// Nav2's code for a failure, in the action's range: UNKNOWN (base + 0) .. NO_VALID_PATH
+/// (base + 8). This node's own codes have no Nav2 number and map onto the nearest: a missing
+/// start pose is planner_server's TF_ERROR (it could not look the robot up), a malformed
+/// request, a missing map or a panic UNKNOWN (the message says which).
+pub fn nav2_code(code: ResultCode, base: u16) -> u16 {
+    let offset = match code {
+        ResultCode::None => return 0,
+        ResultCode::Unknown
+        | ResultCode::InvalidInput
+        | ResultCode::NoMap
+        | ResultCode::NotActive
+        | ResultCode::Cancelled => 0,
+        ResultCode::InvalidPlanner => 1,
+        ResultCode::TfError | ResultCode::NoStartPose => 2,
+        ResultCode::StartOutsideMap => 3,
+        ResultCode::GoalOutsideMap => 4,
+        ResultCode::StartOccupied => 5,
+        ResultCode::GoalOccupied => 6,
+        ResultCode::Timeout => 7,
+        ResultCode::NoValidPath => 8,
+    };
+    base + offset
+}
+
+/// The goals asked to stop (cancelled by a client, or preempted by a newer goal).
+#[derive(Default)]
+struct Stops {
+    cancelled: Mutex<BTreeSet<GoalId>>,
+    /// The newest goal's number: an older running goal sees it change and stops.
+    newest: AtomicU64,
+}
+
+/// Serves one planner action until the node stops.
+pub async fn serve<G: PlannerGoal>(
+    s: Arc<Shared>,
+    o: Outputs,
+    server: AsyncActionServer<G, ComputePathResult, EmptyFeedback>,
+) {
+    let server = Arc::new(server);
+    let stops = Arc::new(Stops::default());
+    // Goals and cancels side by side; both end when the node's task set is shut down.
+    tokio::join!(
+        serve_goals(s, o, server.clone(), stops.clone()),
+        serve_cancels(server, stops)
+    );
+}
+
+/// Accepts each new goal (rejects it while the node is not active), preempting the running one,
+/// and plans it on a task of its own.
+async fn serve_goals<G: PlannerGoal>(
+    s: Arc<Shared>,
+    o: Outputs,
+    server: Arc<AsyncActionServer<G, ComputePathResult, EmptyFeedback>>,
+    stops: Arc<Stops>,
+) {
+    loop {
+        let handle = match server.receive_new_goal().await {
+            Ok(h) => h,
+            Err(e) => {
+                warn!("{}: {e:?}", G::NAME);
+                continue;
+            }
+        };
+        let Some(goal) = server.get_new_goal(handle.clone()) else {
+            continue;
+        };
+        // Inactive (lifecycle): refused at the door, as Nav2's deactivated action servers do.
+        if let Some(refusal) = s.refusal() {
+            info!("{}: goal rejected: {}", G::NAME, refusal.message);
+            if let Err(e) = server.reject_goal(handle).await {
+                warn!("{}: reject: {e:?}", G::NAME);
+            }
+            continue;
+        }
+        let number = stops.newest.fetch_add(1, Ordering::SeqCst) + 1;
+        let accepted = match server.accept_goal(handle).await {
+            Ok(a) => a,
+            Err(e) => {
+                warn!("{}: accept: {e:?}", G::NAME);
+                continue;
+            }
+        };
+        let executing = match server.start_executing_goal(accepted).await {
+            Ok(x) => x,
+            Err(e) => {
+                warn!("{}: execute: {e:?}", G::NAME);
+                continue;
+            }
+        };
+        let (s, o, server, stops) = (s.clone(), o.clone(), server.clone(), stops.clone());
+        tokio::spawn(async move {
+            let id = executing.goal_id();
+            let (status, result) = run_goal(&s, &o, &goal, id, number, &stops).await;
+            stops.cancelled.lock().expect("lock").remove(&id);
+            if let Err(e) = server.send_result_response(executing, status, result).await {
+                warn!("{}: result: {e:?}", G::NAME);
+            }
+        });
+    }
+}
+
+/// Accepts every cancel request for a goal still running; the goal's planning notices and ends
+/// it as canceled.
+async fn serve_cancels<G: PlannerGoal>(
+    server: Arc<AsyncActionServer<G, ComputePathResult, EmptyFeedback>>,
+    stops: Arc<Stops>,
+) {
+    loop {
+        let handle = match server.receive_cancel_request().await {
+            Ok(h) => h,
+            Err(e) => {
+                warn!("{} cancel: {e:?}", G::NAME);
+                continue;
+            }
+        };
+        let goals: Vec<GoalId> = handle.goals().collect();
+        stops
+            .cancelled
+            .lock()
+            .expect("lock")
+            .extend(goals.iter().copied());
+        if let Err(e) = server
+            .respond_to_cancel_requests(&handle, goals.into_iter())
+            .await
+        {
+            warn!("{} cancel response: {e:?}", G::NAME);
+        }
+    }
+}
+
+/// Plans every leg of one goal and builds its result.
+async fn run_goal<G: PlannerGoal>(
+    s: &Arc<Shared>,
+    o: &Outputs,
+    goal: &G,
+    id: GoalId,
+    number: u64,
+    stops: &Arc<Stops>,
+) -> (GoalEndStatus, ComputePathResult) {
+    let t0 = std::time::Instant::now();
+    let failed = |code: u16, message: String| {
+        warn!("{}: {code}: {message}", G::NAME);
+        (
+            GoalEndStatus::Aborted,
+            ComputePathResult {
+                error_code: code,
+                error_msg: message,
+                planning_time: duration(t0.elapsed()),
+                ..ComputePathResult::default()
+            },
+        )
+    };
+    if goal.poses().is_empty() {
+        return failed(NO_VIAPOINTS_GIVEN, "no goals given".into());
+    }
+    let planner = match goal.planner_id() {
+        "" => None,
+        id => match id.parse::<PlannerName>() {
+            Ok(p) => Some(p),
+            Err(e) => return failed(G::CODE_BASE + 1, e.reason),
+        },
+    };
+    let frame = &s.params.global_frame;
+    let mut from = if goal.use_start() {
+        match crate::convert::pose_in_frame(goal.start(), frame) {
+            Ok(p) => p,
+            Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
+        }
+    } else {
+        match s.start.read().expect("lock").map(|(p, _)| p) {
+            Some(p) => p,
+            None => return failed(
+                nav2_code(ResultCode::NoStartPose, G::CODE_BASE),
+                "no robot pose yet (use_start is false): publish /initialpose, /amcl_pose or /odom"
+                    .into(),
+            ),
+        }
+    };
+    let tolerance = s.live.read().expect("lock").tolerance;
+    let mut waypoints = Vec::new();
+    let mut last_outcome: Option<Outcome> = None;
+    let mut resolution = f64::INFINITY;
+    for pose in goal.poses() {
+        let to: Pose2 = match crate::convert::pose_in_frame(pose, frame) {
+            Ok(p) => p,
+            Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
+        };
+        let s2 = s.clone();
+        let stops2 = stops.clone();
+        let outcome = tokio::task::spawn_blocking(move || {
+            let stop = || {
+                stops2.newest.load(Ordering::SeqCst) != number
+                    || stops2.cancelled.lock().expect("lock").contains(&id)
+            };
+            planning::plan(
+                &s2,
+                Request {
+                    start: from,
+                    goal: to,
+                    tolerance,
+                    planner,
+                    cancelled: &stop,
+                },
+            )
+        })
+        .await
+        .unwrap_or_else(|e| Outcome::failed(PlannerName::Astar, 0, planning::task_failure(e)));
+        o.diagnose(s, &outcome).await;
+        match &outcome.result {
+            Ok((plan, _)) => {
+                // Legs join end to start: the next leg starts where this one ended.
+                let skip = usize::from(!waypoints.is_empty());
+                waypoints.extend(plan.waypoints.iter().skip(skip).copied());
+                resolution = resolution.min(plan.resolution);
+                from = Pose2::new(plan.goal.x, plan.goal.y, to.yaw);
+            }
+            Err(f) if f.code == ResultCode::Cancelled => {
+                let preempted = stops.newest.load(Ordering::SeqCst) != number;
+                let why = if preempted {
+                    "preempted by a newer goal"
+                } else {
+                    "canceled"
+                };
+                info!("{}: {why}", G::NAME);
+                let status = if preempted {
+                    GoalEndStatus::Aborted
+                } else {
+                    GoalEndStatus::Canceled
+                };
+                return (
+                    status,
+                    ComputePathResult {
+                        error_code: if preempted { G::CODE_BASE } else { 0 },
+                        error_msg: why.into(),
+                        planning_time: duration(t0.elapsed()),
+                        ..ComputePathResult::default()
+                    },
+                );
+            }
+            Err(Failure { code, message }) => {
+                return failed(nav2_code(*code, G::CODE_BASE), message.clone())
+            }
+        }
+        last_outcome = Some(outcome);
+    }
+    let goal_yaw = goal
+        .poses()
+        .last()
+        .and_then(|p| crate::convert::pose_in_frame(p, frame).ok())
+        .map_or(0.0, |p| p.yaw);
+    let goal_yaw = crate::outputs::final_yaw(
+        s.params.use_final_approach_orientation,
+        &waypoints,
+        goal_yaw,
+    );
+    let path: Path = crate::convert::path_msg(&waypoints, goal_yaw, resolution, o.header(s));
+    // The joined path also goes out on /plan, as planner_server publishes every plan.
+    if let Some(Ok((plan, _))) = last_outcome.as_ref().map(|o| &o.result) {
+        o.publish_plan(s, path.clone(), plan).await;
+    }
+    (
+        GoalEndStatus::Succeeded,
+        ComputePathResult {
+            path,
+            planning_time: duration(t0.elapsed()),
+            error_code: 0,
+            error_msg: String::new(),
+        },
+    )
+}
+
+fn duration(d: std::time::Duration) -> Duration {
+    Duration {
+        sec: d.as_secs() as i32,
+        nanosec: d.subsec_nanos(),
+    }
+}
+
+/// The indices of the poses of `path` (map frame, metres) the robot cannot be at or reach from
+/// the pose before: a pose outside the map or in an obstacle or the inflated band, or one the
+/// segment from its predecessor reaches only through an obstacle. Nav2's `is_path_valid` asks the
+/// same of the costmap (lethal or inscribed cost).
+pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)]) -> Vec<i32> {
+    use planner_core::geometry::Point2;
+    use planner_core::grid::raycast::line_of_sight;
+    let info = grid.info();
+    let mut previous: Option<Point2> = None;
+    let mut invalid = Vec::new();
+    for (i, &(x, y)) in path.iter().enumerate() {
+        let world = Point2::new(x, y);
+        let free = x.is_finite()
+            && y.is_finite()
+            && info.world_to_cell(world).is_some_and(|c| grid.is_free(c));
+        let here = info.world_to_grid(world);
+        let reachable = previous.is_none_or(|p| line_of_sight(grid, p, here));
+        if !(free && reachable) {
+            invalid.push(i as i32);
+        }
+        previous = free.then_some(here);
+    }
+    invalid
+}
+
+/// `is_path_valid` (nav2_msgs/srv/IsPathValid): the path against the current map and the
+/// robot's inflation. A path in another frame, or asked of a node that is not active or has no
+/// map, is answered invalid (with no indices) and the reason logged.
+pub async fn serve_is_path_valid(
+    s: Arc<Shared>,
+    server: ros2_client::Server<
+        patrol_msgs::nav2_msgs::IsPathValidRequest,
+        patrol_msgs::nav2_msgs::IsPathValidResponse,
+    >,
+) {
+    use patrol_msgs::nav2_msgs::IsPathValidResponse;
+    loop {
+        let Ok((id, req)) = server.async_receive_request().await else {
+            continue;
+        };
+        let frame = crate::convert::frame_name(&req.path.header.frame_id);
+        let refusal = if let Some(f) = s.refusal() {
+            Some(f.message)
+        } else if !frame.is_empty() && frame != s.params.global_frame {
+            Some(format!(
+                "the path is in `{frame}`, this node checks paths in `{}`",
+                s.params.global_frame
+            ))
+        } else {
+            None
+        };
+        let map = s.map.read().expect("lock").clone();
+        let response = match (refusal, map) {
+            (Some(why), _) => {
+                warn!("is_path_valid: invalid: {why}");
+                IsPathValidResponse::default()
+            }
+            (None, None) => {
+                warn!("is_path_valid: invalid: no map yet");
+                IsPathValidResponse::default()
+            }
+            (None, Some(map)) => {
+                let poses: Vec<(f64, f64)> = req
+                    .path
+                    .poses
+                    .iter()
+                    .map(|p| (p.pose.position.x, p.pose.position.y))
+                    .collect();
+                let invalid = invalid_poses(&map.grid, &poses);
+                IsPathValidResponse {
+                    is_valid: invalid.is_empty(),
+                    invalid_pose_indices: invalid,
+                }
+            }
+        };
+        if let Err(e) = server.async_send_response(id, response).await {
+            warn!("is_path_valid response: {e:?}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_poses_are_those_in_or_behind_an_obstacle() {
+        use planner_core::geometry::Pose2;
+        use planner_core::grid::{MapInfo, PlanningGrid};
+        // 10 x 3 cells of 1 m, a wall at x = 5 in the middle row only... and all rows: blocked.
+        let info = MapInfo {
+            width: 10,
+            height: 3,
+            resolution: 1.0,
+            origin: Pose2::default(),
+        };
+        let obstacle: Vec<bool> = (0..30).map(|i| i % 10 == 5).collect();
+        let grid = PlanningGrid::from_obstacles(info, obstacle, 0.0);
+        let free = [(0.5, 1.5), (2.5, 1.5), (4.5, 1.5)];
+        assert!(invalid_poses(&grid, &free).is_empty());
+        // Into the wall (index 1), then beyond it: index 2 is free but reached only through the
+        // wall from a blocked predecessor, so it counts as reachable (its predecessor is invalid
+        // already); outside the map (3), NaN (4).
+        let crossing = [
+            (4.5, 1.5),
+            (5.5, 1.5),
+            (6.5, 1.5),
+            (20.0, 1.5),
+            (f64::NAN, 0.0),
+        ];
+        assert_eq!(invalid_poses(&grid, &crossing), vec![1, 3, 4]);
+        // Jumping the wall in one segment: the pose after it is invalid.
+        assert_eq!(invalid_poses(&grid, &[(4.5, 1.5), (6.5, 1.5)]), vec![1]);
+    }
+
+    #[test]
+    fn nav2_codes_in_each_actions_range() {
+        assert_eq!(nav2_code(ResultCode::GoalOccupied, 200), 206);
+        assert_eq!(nav2_code(ResultCode::GoalOutsideMap, 200), 204);
+        assert_eq!(nav2_code(ResultCode::NoValidPath, 300), 308);
+        assert_eq!(nav2_code(ResultCode::NoStartPose, 200), 202);
+        assert_eq!(nav2_code(ResultCode::NoMap, 300), 300);
+        assert_eq!(nav2_code(ResultCode::None, 200), 0);
+    }
+}

@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# Builds tests/interfaces/nav2_msgs (the ROS 2 Jazzy nav2_msgs interfaces the rclpy tests use:
+# ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathValid) and installs it into
+# the test venv, so that `from nav2_msgs.action import ComputePathToPose` works there and rclpy
+# can create action and service clients and servers for them. nav2_msgs has no wheel on PyPI, so
+# this generates it with the rosidl generators from PyPI (tests/requirements-interfaces.txt).
+#
+#   tests/build_interfaces.sh [VENV]      VENV defaults to .venv at the repository root
+#
+# Idempotent: when nothing that goes into the build has changed (the package's files, the pinned
+# requirements, this script, the venv's Python) and nav2_msgs imports, it only says so (~1 s).
+# Installs into the venv's own prefix (VENV/lib, VENV/lib/python3.X/site-packages, VENV/share),
+# where the ros-* wheels put their libraries too: the wheels' ros_wheels_bootstrapper.pth already
+# puts VENV/lib on LD_LIBRARY_PATH when the venv's python starts, so the tests need no
+# environment variable. The build tree is VENV/build/nav2_msgs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+
+say() { printf '==> build_interfaces: %s\n' "$*"; }
+die() { printf 'error: build_interfaces: %s\n' "$*" >&2; exit 1; }
+
+VENV=${1:-.venv}
+mkdir -p "$(dirname "$VENV")"
+VENV=$(cd "$(dirname "$VENV")" && pwd)/$(basename "$VENV")
+PY=$VENV/bin/python
+SRC=$ROOT/tests/interfaces/nav2_msgs
+BUILD=$VENV/build/nav2_msgs
+STAMP=$VENV/share/nav2_msgs/patrol-planner-build.stamp
+START=$SECONDS
+
+# The check that matters: the generated package imports and has C type support for rclpy,
+# started as the tests start it (LD_LIBRARY_PATH comes from the wheels' bootstrapper, not us).
+works() {
+  env -u LD_LIBRARY_PATH -u _ROS_WHEELS_BOOTSTRAP_COMPLETE -u PYTHONPATH -u AMENT_PREFIX_PATH "$PY" -c '
+from nav2_msgs.action import ComputePathToPose, ComputePathThroughPoses, FollowWaypoints
+from nav2_msgs.srv import IsPathValid
+from rclpy.type_support import check_for_type_support
+for t in (ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathValid):
+    check_for_type_support(t)
+' "$@"
+}
+
+# A hash of everything the result depends on.
+inputs_hash() {
+  {
+    (cd "$SRC" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum)
+    sha256sum tests/requirements-interfaces.txt tests/build_interfaces.sh
+    "$PY" -c 'import sys; print(sys.version)'
+  } | sha256sum | cut -d' ' -f1
+}
+
+if [ ! -x "$PY" ]; then
+  say "no venv at $VENV: creating it with tests/requirements.txt"
+  python3 -m venv "$VENV"
+  "$PY" -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
+fi
+
+# One build at a time per venv: a second run waits here, then finds the first one's result.
+exec 9>"$VENV/.build_interfaces.lock"
+if ! flock -n 9; then
+  say "another build_interfaces.sh is working on $VENV: waiting for it"
+  flock 9
+fi
+
+if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$(inputs_hash)" ] && works 2>/dev/null; then
+  say "nav2_msgs in $VENV is up to date (delete $STAMP to force a rebuild)"
+  exit 0
+fi
+
+say "installing the rosidl/ament generator wheels (tests/requirements-interfaces.txt) into $VENV"
+"$PY" -m pip install --quiet --disable-pip-version-check \
+  -r tests/requirements.txt -r tests/requirements-interfaces.txt \
+  || die "pip could not install tests/requirements-interfaces.txt"
+
+# A C and a C++ compiler and make (Debian's; CMake itself comes from PyPI, above).
+missing=()
+command -v cc >/dev/null || missing+=(gcc)
+command -v c++ >/dev/null || missing+=(g++)
+command -v make >/dev/null || missing+=(make)
+if [ ${#missing[@]} -gt 0 ]; then
+  say "installing ${missing[*]} with apt-get"
+  command -v apt-get >/dev/null || die "${missing[*]} missing and no apt-get to install them"
+  SUDO=; [ "$(id -u)" -eq 0 ] || SUDO=sudo
+  $SUDO apt-get update -qq || die "apt-get update failed"
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" \
+    || die "apt-get install ${missing[*]} failed"
+fi
+INCLUDEPY=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
+[ -f "$INCLUDEPY/Python.h" ] \
+  || die "no Python.h in $INCLUDEPY: the venv's Python needs its headers (Debian: apt-get install python3-dev)"
+
+# Leave no file of a previous build behind (an interface removed from the package, say).
+if [ -f "$BUILD/install_manifest.txt" ]; then
+  say "removing the previous install of nav2_msgs from $VENV"
+  while IFS= read -r f; do
+    case "$f" in "$VENV"/*) rm -f -- "$f" ;; esac
+  done < "$BUILD/install_manifest.txt"
+  # and the directories that held them (pip chokes on an empty *.egg-info directory)
+  SITE=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+  rm -rf "$SITE/nav2_msgs" "$SITE"/nav2_msgs-*.egg-info "$VENV/include/nav2_msgs" "$VENV/share/nav2_msgs"
+fi
+rm -rf "$BUILD" "$STAMP"
+mkdir -p "$BUILD"
+
+# Only the venv's prefix: no sourced ROS install or other workspace may leak into the build.
+# (ament_cmake's resource index search, which finds the type support generators, reads
+# AMENT_PREFIX_PATH and CMAKE_INSTALL_PREFIX; find_package reads CMAKE_PREFIX_PATH.)
+export PATH=$VENV/bin:$PATH
+export AMENT_PREFIX_PATH=$VENV
+unset CMAKE_PREFIX_PATH COLCON_PREFIX_PATH PYTHONPATH LD_LIBRARY_PATH _ROS_WHEELS_BOOTSTRAP_COMPLETE
+LOG=$BUILD/build.log
+run() {
+  if ! "$@" >>"$LOG" 2>&1; then
+    tail -n 60 "$LOG" >&2
+    die "failed: $* (whole log: $LOG)"
+  fi
+}
+say "configuring (cmake $(cmake --version | head -n 1 | cut -d' ' -f3); log: $LOG)"
+run cmake -S "$SRC" -B "$BUILD" \
+  -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_INSTALL_PREFIX="$VENV" \
+  -DCMAKE_PREFIX_PATH="$VENV" \
+  -DPython3_EXECUTABLE="$PY" \
+  -DBUILD_TESTING=OFF
+say "generating and compiling (C, C++ and Python type support; about a minute on 2 cores)"
+run cmake --build "$BUILD" --parallel "$(nproc)"
+say "installing into $VENV"
+run cmake --install "$BUILD"
+
+if ! works; then
+  die "nav2_msgs was installed into $VENV but does not import with rclpy type support (see above)"
+fi
+inputs_hash >"$STAMP"
+say "done in $((SECONDS - START)) s: nav2_msgs (Jazzy 1.3.13 subset) is importable from $PY"

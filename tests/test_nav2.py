@@ -1,0 +1,145 @@
+"""The node as a Nav2 stack uses planner_server, with nav2_msgs built into the test venv
+(tests/build_interfaces.sh): ComputePathToPose as nav2_simple_commander's getPath calls it,
+ComputePathThroughPoses as getPathThroughPoses does, Nav2's error codes, cancel during a slow
+plan, and is_path_valid. The node runs on a domain of its own, with the test map of
+test_node.py published on /map (collisions checked with this suite's own code)."""
+import math
+
+import rclpy
+from rclpy.action import ActionClient
+
+from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose
+from nav2_msgs.srv import IsPathValid
+from nav_msgs.msg import Path as PathMsg
+
+from conftest import LATCHED, Ros, domain_id, stamped, start_node, stop_binary
+from test_node import assert_collision_free, build_test_map, grid_msg, world
+
+PARAMS = (
+    "patrol_planner:\n  ros__parameters:\n"
+    "    map_yaml: ''\n    follow_plan: false\n    planner: astar\n    max_planning_time: 60.0\n"
+    # A swarm slow enough to cancel: a million iterations.
+    "    swarm: {iterations: 1000000}\n"
+)
+
+
+class Nav2Client:
+    def __init__(self, ros):
+        self.ros = ros
+        self.to_pose = ActionClient(ros.node, ComputePathToPose, "compute_path_to_pose")
+        self.through = ActionClient(ros.node, ComputePathThroughPoses, "compute_path_through_poses")
+        self.valid = ros.node.create_client(IsPathValid, "is_path_valid")
+
+    def send(self, client, goal, cancel_after=None, timeout=30):
+        """Sends a goal the way nav2_simple_commander does; returns (status, result)."""
+        ros = self.ros
+        ros.spin_until(lambda: client.server_is_ready(), 20, "the action server")
+        accepted = client.send_goal_async(goal)
+        handle = ros.spin_until(lambda: accepted.done() and accepted.result(), 20, "the goal's acceptance")
+        assert handle.accepted, "the goal was rejected"
+        result = handle.get_result_async()
+        if cancel_after is not None:
+            ros.spin_for(cancel_after)
+            cancel = handle.cancel_goal_async()
+            ros.spin_until(cancel.done, 10, "the cancel's answer")
+        ros.spin_until(result.done, timeout, "the action's result")
+        return result.result().status, result.result().result
+
+    def get_path(self, start, goal, planner_id=""):
+        g = ComputePathToPose.Goal()
+        g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*goal), True, planner_id
+        return self.send(self.to_pose, g)
+
+    def is_valid(self, points):
+        path = PathMsg()
+        path.header.frame_id = "map"
+        path.poses = [stamped(x, y) for x, y in points]
+        self.ros.spin_until(lambda: self.valid.service_is_ready(), 20, "is_path_valid")
+        future = self.valid.call_async(IsPathValid.Request(path=path))
+        self.ros.spin_until(future.done, 20, "is_path_valid's answer")
+        return future.result()
+
+
+def near(pose, point, tol):
+    return math.hypot(pose.pose.position.x - point[0], pose.pose.position.y - point[1]) <= tol
+
+
+def test_planner_server_actions_and_is_path_valid(tmp_path):
+    params = tmp_path / "params.yaml"
+    params.write_text(PARAMS)
+    domain = domain_id(95)
+    proc = start_node(domain, params, "nav2_test.log")
+    context = rclpy.Context()
+    ros = Ros(domain, context=context)
+    try:
+        grid = build_test_map()
+        ros.wait_matched(ros.map_pub, "/map")
+        ros.map_pub.publish(grid_msg(grid))
+        nav2 = Nav2Client(ros)
+        start, goal = world(1.0, 1.0), world(10.0, 5.0)
+
+        # getPath: a path from the start to the goal, round the wall, planning_time set.
+        def planned():
+            status, result = nav2.get_path(start, goal)
+            return (status, result) if result.error_code == 0 else None
+
+        status, result = ros.spin_until(planned, 30, "ComputePathToPose to plan on the test map")
+        assert status == 4, f"status {status}"  # SUCCEEDED
+        assert near(result.path.poses[0], start, 1e-6) and near(result.path.poses[-1], goal, 1e-6)
+        assert_collision_free(result.path, grid)
+        assert result.planning_time.sec > 0 or result.planning_time.nanosec > 0
+        # The plan also went out on /plan.
+        ros.spin_until(lambda: ros.plans and near(ros.plans[-1].poses[-1], goal, 1e-6), 10, "the action's plan on /plan")
+
+        # planner_id names another planner: /diagnostics says which answered.
+        before = len(ros.diagnostics)
+        status, result = nav2.get_path(start, goal, planner_id="any_angle")
+        assert result.error_code == 0
+        ros.spin_until(
+            lambda: any(code == "NONE" and v.get("planner") == "any_angle" for code, _, v in ros.diagnostics_since(before)),
+            10, "/diagnostics naming any_angle",
+        )
+        status, result = nav2.get_path(start, goal, planner_id="dijkstra")
+        assert (status, result.error_code) == (6, 201) and "dijkstra" in result.error_msg  # ABORTED
+
+        # Nav2's codes: occupied goal 206, goal outside 204, unreachable 208.
+        status, result = nav2.get_path(start, world(5.5, 3.0))
+        assert (status, result.error_code) == (6, 206) and result.error_msg
+        status, result = nav2.get_path(start, (-5.0, -5.0))
+        assert (status, result.error_code) == (6, 204) and result.error_msg
+        status, result = nav2.get_path(start, world(10.0, 2.0))
+        assert (status, result.error_code) == (6, 208), result.error_msg
+
+        # Cancel during a slow plan (a million swarm iterations): canceled, quickly.
+        g = ComputePathToPose.Goal()
+        g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*goal), True, "mocmcso"
+        status, result = nav2.send(nav2.to_pose, g, cancel_after=1.0, timeout=15)
+        assert status == 5, f"status {status}, {result.error_msg}"  # CANCELED
+
+        # Through three poses: one joined path passing each of them.
+        vias = [world(3.0, 7.0), world(8.0, 7.0), world(10.0, 5.0)]
+        t = ComputePathThroughPoses.Goal()
+        t.start, t.use_start = stamped(*start), True
+        t.goals = [stamped(*p) for p in vias]
+        status, result = nav2.send(nav2.through, t)
+        assert (status, result.error_code) == (4, 0), result.error_msg
+        assert near(result.path.poses[0], start, 1e-6)
+        for p in vias:
+            assert any(near(q, p, 0.05) for q in result.path.poses), f"the path misses {p}"
+        assert_collision_free(result.path, grid)
+        t.goals = []
+        status, result = nav2.send(nav2.through, t)
+        assert (status, result.error_code) == (6, 309)
+
+        # is_path_valid: through the wall invalid with its indices, in free space valid.
+        crossing = [world(4.0, 3.0), world(5.5, 3.0), world(7.0, 3.0)]
+        answer = nav2.is_valid(crossing)
+        assert not answer.is_valid and list(answer.invalid_pose_indices) == [1]
+        answer = nav2.is_valid([world(1.0, 1.0), world(3.0, 1.0), world(3.0, 7.0)])
+        assert answer.is_valid and list(answer.invalid_pose_indices) == []
+    finally:
+        ros.close()
+        stop_binary(proc)
+
+
+assert LATCHED  # the latched profile the session uses (kept imported for pyflakes' sake)

@@ -1,0 +1,75 @@
+"""Replanning while following, as Nav2 does it (navigation2 PR 2841): the node and the simulated
+car on a domain of their own, the bundled map published by this test. While the car follows its
+plan, a new map that blocks the path ahead makes the node plan again (a new /plan that avoids the
+block, and the car drives on); a new map that does not touch the path leaves the plan as it was."""
+import math
+
+import rclpy
+from nav_msgs.msg import Odometry
+
+from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
+from test_node import assert_collision_free, grid_msg
+from test_vehicle import bundled_map
+
+GOAL = (8.1, 6.9)
+RES = 0.2  # the bundled map's resolution
+
+
+def blocked(grid, x, y, half=0.5):
+    """A copy of `grid` with a square obstacle of side 2 * `half` m centred at (x, y)."""
+    g = grid.copy()
+    c0, c1 = int((x - half) / RES), int((x + half) / RES) + 1
+    r0, r1 = int((y - half) / RES), int((y + half) / RES) + 1
+    g[max(r0, 0):r1, max(c0, 0):c1] = 100
+    return g
+
+
+def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text("patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    planner: astar\n")
+    domain = domain_id(40)
+    node = start_node(domain, params, "patrol_planner_replan_test.log")
+    bridge = start_bridge(domain, ROOT / "config" / "chassis.yaml", "chassis_bridge_replan_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        odom = []
+        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+        grid = bundled_map()
+        ros.wait_matched(ros.map_pub, "/map")
+        ros.map_pub.publish(grid_msg(grid, origin=(0.0, 0.0), res=RES))
+        ros.spin_until(lambda: odom, 20, "/odom from the simulated chassis")
+        ros.send_goal_until_planned(stamped(*GOAL))
+        first = [p for p in ros.plans if p.poses][-1]
+        pts = [(p.pose.position.x, p.pose.position.y) for p in first.poses]
+
+        # A map far from the path: nothing changes.
+        ros.spin_for(2.0)
+        far = (19.5, 0.5)
+        assert min(math.hypot(x - far[0], y - far[1]) for x, y in pts) > 3.0
+        before = len(ros.plans)
+        ros.map_pub.publish(grid_msg(blocked(grid, *far), origin=(0.0, 0.0), res=RES))
+        ros.spin_for(3.0)
+        assert len(ros.plans) == before, "a map that does not touch the path replanned it"
+
+        # A block on the path well ahead of the car: a new plan round it, and the car drives on.
+        car = odom[-1].pose.pose.position
+        ahead = [p for p in pts if math.hypot(p[0] - car.x, p[1] - car.y) > 2.5 and math.hypot(p[0] - GOAL[0], p[1] - GOAL[1]) > 1.5]
+        assert ahead, "no stretch of the path left to block"
+        bx, by = ahead[len(ahead) // 2]
+        new_grid = blocked(grid, bx, by, half=0.3)
+        before = len(ros.plans)
+        ros.map_pub.publish(grid_msg(new_grid, origin=(0.0, 0.0), res=RES))
+        replanned = ros.spin_until(lambda: [p for p in ros.plans[before:] if p.poses], 15, "a new /plan after the blocking map")
+        assert_collision_free(replanned[-1], new_grid, origin=(0.0, 0.0), res=RES)
+
+        def arrived():
+            p = odom[-1].pose.pose.position
+            return math.hypot(p.x - GOAL[0], p.y - GOAL[1]) <= 0.15 and abs(odom[-1].twist.twist.linear.x) < 1e-3
+
+        ros.spin_until(arrived, 90, "the car to reach the goal round the new block")
+    finally:
+        ros.close()
+        try:
+            stop_binary(bridge)
+        finally:
+            stop_binary(node)
