@@ -4,11 +4,14 @@
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20   # latency
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --service
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 30 --service --fresh
+    .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --action
 
 It publishes the start (if given) on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
 and waits for /plan and /diagnostics; with --service it asks /patrol_planner/make_plan (GetPlan)
 instead and times the call; --fresh makes a new client for every call, as each `ros2 service
-call` does, so discovery is part of the time. Use the node's ROS_DOMAIN_ID."""
+call` does, so discovery is part of the time; --action sends Nav2's ComputePathToPose (as
+nav2_simple_commander's getPath does; needs nav2_msgs from tests/build_interfaces.sh) and times
+goal -> result. Use the node's ROS_DOMAIN_ID."""
 import argparse
 import statistics
 import time
@@ -34,9 +37,15 @@ def main():
     ap.add_argument("--repeat", type=int, default=1, help="send the goal this many times and report the median latency")
     ap.add_argument("--service", action="store_true", help="call /patrol_planner/make_plan instead of publishing goals")
     ap.add_argument("--fresh", action="store_true", help="with --service: a new client for every call")
+    ap.add_argument("--action", action="store_true", help="send Nav2's ComputePathToPose instead of publishing goals")
     args = ap.parse_args()
     rclpy.init()
     node = rclpy.create_node("send_goal")
+    if args.action:
+        call_action(node, args)
+        node.destroy_node()
+        rclpy.shutdown()
+        return
     if args.service:
         call_service(node, args)
         node.destroy_node()
@@ -141,6 +150,46 @@ def call_service(node, args):
             print(f"make_plan: {len(plan.poses)} poses in {1e3 * latencies[-1]:.1f} ms" + ("" if plan.poses else " (empty: see /diagnostics)"))
     if args.repeat > 1 and latencies:
         print(f"GetPlan round trip over {len(latencies)} calls: median {1e3 * statistics.median(latencies):.1f} ms, "
+              f"max {1e3 * max(latencies):.1f} ms")
+
+
+def call_action(node, args):
+    from nav2_msgs.action import ComputePathToPose
+    from rclpy.action import ActionClient
+
+    client = ActionClient(node, ComputePathToPose, "compute_path_to_pose")
+    if not client.wait_for_server(timeout_sec=20):
+        raise SystemExit("no compute_path_to_pose action (same ROS_DOMAIN_ID?)")
+    goal = ComputePathToPose.Goal()
+    goal.goal.header.frame_id = "map"
+    goal.goal.pose.position.x, goal.goal.pose.position.y = args.goal
+    goal.goal.pose.orientation.w = 1.0
+    if args.start is not None:
+        goal.use_start = True
+        goal.start.header.frame_id = "map"
+        goal.start.pose.position.x, goal.start.pose.position.y = args.start
+        goal.start.pose.orientation.w = 1.0
+    latencies = []
+    for _ in range(args.repeat):
+        sent = time.monotonic()
+        accepted = client.send_goal_async(goal)
+        rclpy.spin_until_future_complete(node, accepted, timeout_sec=30)
+        handle = accepted.result()
+        if handle is None or not handle.accepted:
+            print("goal rejected")
+            continue
+        result = handle.get_result_async()
+        rclpy.spin_until_future_complete(node, result, timeout_sec=30)
+        if not result.done():
+            print("no result within 30 s")
+            continue
+        latencies.append(time.monotonic() - sent)
+        r = result.result().result
+        if args.repeat == 1:
+            print(f"compute_path_to_pose: {len(r.path.poses)} poses, error_code {r.error_code} {r.error_msg!r}, "
+                  f"{1e3 * latencies[-1]:.1f} ms")
+    if args.repeat > 1 and latencies:
+        print(f"ComputePathToPose goal -> result over {len(latencies)} goals: median {1e3 * statistics.median(latencies):.1f} ms, "
               f"max {1e3 * max(latencies):.1f} ms")
 
 
