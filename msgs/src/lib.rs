@@ -339,6 +339,25 @@ pub mod nav2_msgs {
     );
 }
 
+/// bond (bond/msg/Status): the heartbeat Nav2's lifecycle manager bonds with each server by.
+pub mod bond {
+    use super::std_msgs::Header;
+    use super::*;
+    /// bond/msg/Status
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct Status {
+        pub header: Header,
+        /// The bond's id: the server's node name.
+        pub id: String,
+        /// This side's own id, unique per process.
+        pub instance_id: String,
+        pub active: bool,
+        pub heartbeat_timeout: f32,
+        pub heartbeat_period: f32,
+    }
+    messages!(Status);
+}
+
 /// lifecycle_msgs: the managed-node interface (ROS 2 design "Managed nodes") that Nav2's
 /// lifecycle_manager drives.
 pub mod lifecycle_msgs {

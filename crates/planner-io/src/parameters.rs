@@ -61,6 +61,10 @@ pub struct NodeParams {
     /// Nav2's `expected_planner_frequency` (Hz): a plan that takes longer than its period is
     /// logged as a warning, as planner_server logs a missed rate. 0: no warning.
     pub expected_planner_frequency: f64,
+    /// Nav2's `bond_heartbeat_period` (s): while active, the node sends a bond heartbeat on
+    /// `bond` this often, so Nav2's lifecycle manager can bond with it as with its own servers.
+    /// 0: no bond.
+    pub bond_heartbeat_period: f64,
 }
 
 impl Default for NodeParams {
@@ -82,6 +86,7 @@ impl Default for NodeParams {
             autostart: true,
             use_final_approach_orientation: false,
             expected_planner_frequency: 1.0,
+            bond_heartbeat_period: 0.1,
         }
     }
 }
@@ -100,9 +105,14 @@ impl NodeParams {
                     .into(),
             );
         }
-        if !(self.expected_planner_frequency.is_finite() && self.expected_planner_frequency >= 0.0)
+        let non_negative = |v: f64| v.is_finite() && v >= 0.0;
+        if !non_negative(self.expected_planner_frequency)
+            || !non_negative(self.bond_heartbeat_period)
         {
-            return Err("expected_planner_frequency must be finite and not negative".into());
+            return Err(
+                "expected_planner_frequency and bond_heartbeat_period must be finite and not negative"
+                    .into(),
+            );
         }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
             return Err("map_to_odom must be finite".into());

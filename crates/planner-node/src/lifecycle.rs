@@ -320,6 +320,48 @@ pub mod serve {
         }
     }
 
+    /// The bond heartbeat Nav2's lifecycle manager expects of a server (bondcpp's protocol, as
+    /// nav2_util::LifecycleNode creates it on activate): while active, `bond/Status` with the
+    /// node's name as the bond id, this process's instance id and `active: true`, every
+    /// `period`; on leaving active, a few `active: false` to break the bond cleanly.
+    pub async fn bond(
+        s: Arc<Shared>,
+        publisher: Publisher<patrol_msgs::bond::Status>,
+        node_name: String,
+        period: f64,
+    ) {
+        use patrol_msgs::bond::Status;
+        let instance_id = format!("{}-{:016x}", std::process::id(), rand::random::<u64>());
+        let status = |active: bool| Status {
+            header: patrol_msgs::std_msgs::Header {
+                stamp: ros_edge::now(),
+                frame_id: String::new(),
+            },
+            id: node_name.clone(),
+            instance_id: instance_id.clone(),
+            active,
+            heartbeat_timeout: 4.0,
+            heartbeat_period: period as f32,
+        };
+        let mut ticker = tokio::time::interval(std::time::Duration::from_secs_f64(period));
+        // Breaking statuses still to send after leaving active.
+        let mut breaking = 0;
+        loop {
+            ticker.tick().await;
+            let active = *s.lifecycle.read().expect("lock") == State::Active;
+            if active {
+                breaking = 3;
+            } else if breaking > 0 {
+                breaking -= 1;
+            } else {
+                continue;
+            }
+            if let Err(e) = publisher.async_publish(status(active)).await {
+                warn!("bond: {e:?}");
+            }
+        }
+    }
+
     fn stamp_ns() -> u64 {
         std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)

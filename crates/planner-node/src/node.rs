@@ -310,6 +310,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     )?;
     let events =
         node.create_publisher::<TransitionEvent>(&event_topic, Some(lifecycle_qos.clone()))?;
+    let bond_topic = topic(&mut node, "bond", "bond", "Status", &lifecycle_qos)?;
+    let bond_pub = node
+        .create_publisher::<patrol_msgs::bond::Status>(&bond_topic, Some(lifecycle_qos.clone()))?;
     let cmd_pub = if params.enable_stamped_cmd_vel {
         let t = topic(
             &mut node,
@@ -411,6 +414,14 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         events,
     ));
     tasks.spawn(lifecycle::serve::get_state(shared.clone(), get_state));
+    if params.bond_heartbeat_period > 0.0 {
+        tasks.spawn(lifecycle::serve::bond(
+            shared.clone(),
+            bond_pub,
+            naming.node.clone(),
+            params.bond_heartbeat_period,
+        ));
+    }
     tasks.spawn(lifecycle::serve::get_available_states(get_states));
     for (server, whole_graph) in transition_servers {
         tasks.spawn(lifecycle::serve::get_transitions(
