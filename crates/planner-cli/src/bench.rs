@@ -53,6 +53,10 @@ pub struct Row {
     pub turning_rad_mean: Option<f64>,
     pub turns_mean: Option<f64>,
     pub min_clearance_m_mean: Option<f64>,
+    /// Mean over runs of the clearance averaged along each path (m).
+    pub mean_clearance_m_mean: Option<f64>,
+    /// Mean over runs of the costmap cost integrated along each path (m).
+    pub path_cost_mean: Option<f64>,
     pub time_ms_median: f64,
     /// This planner's median time / A*'s median time on the same query, in this run.
     pub time_vs_astar: Option<f64>,
@@ -133,6 +137,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let mut times = Vec::new();
                 let (mut len, mut turn, mut turns, mut clear, mut iters, mut best_it) =
                     (vec![], vec![], vec![], vec![], vec![], vec![]);
+                let (mut mean_clear, mut cost) = (vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
                 for seed in 0..args.runs {
                     let (result, t) = ws.run(*planner, &query, seed)?;
@@ -145,6 +150,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             turn.push(plan.metrics.turning_rad);
                             turns.push(plan.metrics.turns as f64);
                             clear.push(plan.metrics.min_clearance_m);
+                            mean_clear.push(plan.metrics.mean_clearance_m);
+                            cost.push(plan.metrics.path_cost);
                             iters.push(plan.stats.iterations as f64);
                             if let Some(b) = plan.stats.best_iteration {
                                 best_it.push(b as f64);
@@ -171,6 +178,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     turning_rad_mean: mean(&turn),
                     turns_mean: mean(&turns),
                     min_clearance_m_mean: mean(&clear),
+                    mean_clearance_m_mean: mean(&mean_clear),
+                    path_cost_mean: mean(&cost),
                     time_ms_median,
                     time_vs_astar: (astar_ms > 0.0).then(|| time_ms_median / astar_ms),
                     iterations_mean: mean(&iters),
@@ -229,16 +238,16 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
     );
     let _ = writeln!(
         s,
-        "| map | scenario | planner | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | time median | vs A* | iterations | best at |"
+        "| map | scenario | planner | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | path cost | time median | vs A* | iterations | best at |"
     );
     let _ = writeln!(
         s,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
+            "| {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
             r.map,
             r.scenario,
             r.planner,
@@ -252,6 +261,8 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
             f(r.turning_rad_mean, 2),
             f(r.turns_mean, 1),
             f(r.min_clearance_m_mean, 2),
+            f(r.mean_clearance_m_mean, 2),
+            f(r.path_cost_mean, 2),
             r.time_ms_median,
             f(r.time_vs_astar, 2),
             f(r.iterations_mean, 0),

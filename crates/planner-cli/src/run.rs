@@ -89,6 +89,10 @@ struct PlanOutput<'a> {
     turning_rad: f64,
     turns: usize,
     min_clearance_m: f64,
+    /// Clearance averaged over the path's length (m).
+    mean_clearance_m: f64,
+    /// The costmap cost integrated along the path (m).
+    path_cost: f64,
     collision_free: bool,
     time_ms: f64,
     reference_length_m: Option<f64>,
@@ -133,6 +137,8 @@ pub fn plan_command(
         turning_rad: plan.metrics.turning_rad,
         turns: plan.metrics.turns,
         min_clearance_m: plan.metrics.min_clearance_m,
+        mean_clearance_m: plan.metrics.mean_clearance_m,
+        path_cost: plan.metrics.path_cost,
         collision_free: plan.metrics.collision_free,
         time_ms: elapsed.as_secs_f64() * 1e3,
         reference_length_m: reference.as_ref().map(|r| r.metrics.length_m),

@@ -12,6 +12,7 @@ use crate::genetic::GaParams;
 use crate::grid::inflation::InflationConfig;
 use crate::params::{check, ParamError, Range};
 use crate::registry::PlannerName;
+use crate::search::SearchParams;
 use crate::swarm::SwarmParams;
 use serde::{Deserialize, Serialize};
 
@@ -33,6 +34,8 @@ pub struct PlannerConfig {
     pub max_planning_time: f64,
     /// How the raw map becomes the planning grid.
     pub costmap: InflationConfig,
+    /// The graph searches (`astar`'s cost-aware mode).
+    pub search: SearchParams,
     /// The potential field: planner `apf`, and the seed of the swarms.
     pub apf: ApfParams,
     /// The swarm planners (mocmcso, mocso, mopso, cmcso, cso, pso): table 3 of the patrol car paper.
@@ -62,6 +65,7 @@ impl Default for PlannerConfig {
             smoothing: None,
             max_planning_time: default_max_planning_time(),
             costmap: InflationConfig::default(),
+            search: SearchParams::default(),
             apf: ApfParams::default(),
             swarm: SwarmParams::default(),
             colony: ColonyParams::default(),
@@ -80,6 +84,7 @@ impl PlannerConfig {
             ],
         )?;
         self.costmap.validate()?;
+        self.search.validate()?;
         self.apf.validate()?;
         self.swarm.validate()?;
         self.colony.validate()?;

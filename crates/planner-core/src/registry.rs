@@ -152,7 +152,9 @@ pub fn build(config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
         })
     };
     Ok(match config.planner {
-        PlannerName::Astar => Box::new(AStar),
+        PlannerName::Astar => Box::new(AStar {
+            cost_travel_multiplier: config.search.cost_travel_multiplier,
+        }),
         PlannerName::AnyAngle => Box::new(AnyAngle),
         PlannerName::Apf => Box::new(ApfPlanner {
             params: apf.clone(),

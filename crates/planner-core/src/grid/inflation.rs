@@ -27,6 +27,13 @@ pub struct InflationConfig {
     pub occupied_threshold: i8,
     /// Whether unknown (-1) cells may be crossed. Default false.
     pub allow_unknown: bool,
+    /// Graded costs (costmap_2d's inflation layer): within this distance (m) of an obstacle a
+    /// free cell costs `252 * exp(-cost_scaling_factor * (d - robot_radius))`, beyond it 0.
+    /// Default 1.0.
+    pub inflation_radius: f64,
+    /// How fast the cost falls with distance (1/m), costmap_2d's `cost_scaling_factor`.
+    /// Default 3.0.
+    pub cost_scaling_factor: f64,
 }
 
 pub fn default_robot_radius() -> f64 {
@@ -38,6 +45,12 @@ pub fn default_safety_margin() -> f64 {
 pub fn default_occupied_threshold() -> i8 {
     65
 }
+pub fn default_inflation_radius() -> f64 {
+    1.0
+}
+pub fn default_cost_scaling_factor() -> f64 {
+    3.0
+}
 
 impl Default for InflationConfig {
     fn default() -> Self {
@@ -46,6 +59,8 @@ impl Default for InflationConfig {
             safety_margin: default_safety_margin(),
             occupied_threshold: default_occupied_threshold(),
             allow_unknown: false,
+            inflation_radius: default_inflation_radius(),
+            cost_scaling_factor: default_cost_scaling_factor(),
         }
     }
 }
@@ -70,6 +85,8 @@ impl InflationConfig {
             &[
                 ("robot_radius", self.robot_radius),
                 ("safety_margin", self.safety_margin),
+                ("inflation_radius", self.inflation_radius),
+                ("cost_scaling_factor", self.cost_scaling_factor),
             ],
         )?;
         check(
@@ -96,6 +113,8 @@ pub struct PlanningGrid {
     /// queried, and a million roots cost a third of the transform.
     clearance2: Vec<u32>,
     inflation_radius: f64,
+    /// How clearance becomes a graded cost (see [`PlanningGrid::cost`]).
+    costs: CostModel,
     /// Free cells, with a one-cell blocked border (row stride `width + 2`): lets the graph
     /// searches step to any 8-neighbour without a bounds check.
     padded_free: Vec<bool>,
@@ -116,7 +135,19 @@ impl PlanningGrid {
                 }
             })
             .collect();
-        Ok(Self::from_obstacles(*map.info(), obstacle, cfg.radius()))
+        Ok(
+            Self::from_obstacles(*map.info(), obstacle, cfg.radius()).with_costs(CostModel {
+                inscribed_radius: cfg.robot_radius,
+                inflation_radius: cfg.inflation_radius,
+                cost_scaling_factor: cfg.cost_scaling_factor,
+            }),
+        )
+    }
+
+    /// The same grid with another cost model.
+    pub fn with_costs(mut self, costs: CostModel) -> Self {
+        self.costs = costs;
+        self
     }
 
     /// Builds a grid from an obstacle mask (row-major, `info.cell_count()` long), growing the
@@ -149,6 +180,11 @@ impl PlanningGrid {
             info,
             clearance2,
             inflation_radius: radius,
+            costs: CostModel {
+                inscribed_radius: radius,
+                inflation_radius: default_inflation_radius().max(radius),
+                cost_scaling_factor: default_cost_scaling_factor(),
+            },
             padded_free,
         }
     }
@@ -185,6 +221,24 @@ impl PlanningGrid {
     /// `(y + 1) * (width + 2) + x + 1`).
     pub fn padded_free(&self) -> &[bool] {
         &self.padded_free
+    }
+
+    /// The cell's cost on costmap_2d's scale: [`LETHAL`] for an obstacle cell or outside the
+    /// map, [`INSCRIBED`] where the robot's centre may not be (the inflated band), else
+    /// `252 * exp(-cost_scaling_factor * (d - inscribed_radius))` at clearance `d` up to the
+    /// inflation radius, and 0 beyond: the costmap Nav2's planners weigh.
+    pub fn cost(&self, c: Cell) -> u8 {
+        if !self.info.contains(c) {
+            return LETHAL;
+        }
+        let d = self.clearance(c);
+        if d <= 0.0 {
+            LETHAL
+        } else if !self.is_free(c) {
+            INSCRIBED
+        } else {
+            self.costs.cost_at(d)
+        }
     }
 
     /// Distance (m) from a cell's centre to the nearest obstacle cell's centre; 0 outside the map.
@@ -254,6 +308,39 @@ impl PlanningGrid {
             }
         }
         best.map(|(_, dy, dx)| Cell::new((cx + dx) as i32, (cy + dy) as i32))
+    }
+}
+
+/// costmap_2d's cost of an obstacle cell.
+pub const LETHAL: u8 = 254;
+/// costmap_2d's cost of a cell within the robot's inscribed radius of an obstacle.
+pub const INSCRIBED: u8 = 253;
+/// The highest cost of a cell the robot may be in.
+pub const MAX_NON_OBSTACLE: u8 = 252;
+
+/// costmap_2d's inflation layer: how a free cell's clearance becomes its cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostModel {
+    /// Clearance (m) at and below which a cell is inscribed (the robot's radius).
+    pub inscribed_radius: f64,
+    /// Clearance (m) beyond which a cell costs nothing.
+    pub inflation_radius: f64,
+    /// costmap_2d's `cost_scaling_factor` (1/m).
+    pub cost_scaling_factor: f64,
+}
+
+impl CostModel {
+    /// The cost of a free cell at clearance `d` (m).
+    pub fn cost_at(&self, d: f64) -> u8 {
+        if d > self.inflation_radius {
+            0
+        } else if d <= self.inscribed_radius {
+            INSCRIBED
+        } else {
+            let c = MAX_NON_OBSTACLE as f64
+                * (-self.cost_scaling_factor * (d - self.inscribed_radius)).exp();
+            c.clamp(0.0, MAX_NON_OBSTACLE as f64) as u8
+        }
     }
 }
 
@@ -451,6 +538,37 @@ mod tests {
         };
         let g = PlanningGrid::from_obstacles(info, vec![true; 4_000_000], 0.0);
         assert_eq!(g.nearest_free(Cell::new(1000, 1000), 1e9), None);
+    }
+
+    /// costmap_2d's scale: lethal on the obstacle, inscribed in the band, the exponential decay
+    /// beyond it, 0 past the inflation radius.
+    #[test]
+    fn costs_follow_the_inflation_layer() {
+        let m = CostModel {
+            inscribed_radius: 0.25,
+            inflation_radius: 1.0,
+            cost_scaling_factor: 3.0,
+        };
+        assert_eq!(m.cost_at(0.2), INSCRIBED);
+        assert_eq!(m.cost_at(0.25), INSCRIBED);
+        assert_eq!(m.cost_at(0.5), (252.0 * (-3.0f64 * 0.25).exp()) as u8);
+        assert!(m.cost_at(0.5) > m.cost_at(0.8) && m.cost_at(0.8) > 0);
+        assert_eq!(m.cost_at(1.01), 0);
+        let info = MapInfo {
+            width: 20,
+            height: 1,
+            resolution: 0.1,
+            origin: Pose2::default(),
+        };
+        let mut obstacle = vec![false; 20];
+        obstacle[0] = true;
+        let g = PlanningGrid::from_obstacles(info, obstacle, 0.2).with_costs(m);
+        assert_eq!(g.cost(Cell::new(0, 0)), LETHAL);
+        assert_eq!(g.cost(Cell::new(1, 0)), INSCRIBED); // blocked band
+        assert_eq!(g.cost(Cell::new(-1, 0)), LETHAL);
+        let costs: Vec<u8> = (3..20).map(|x| g.cost(Cell::new(x, 0))).collect();
+        assert!(costs.windows(2).all(|w| w[0] >= w[1]), "{costs:?}");
+        assert_eq!(g.cost(Cell::new(19, 0)), 0);
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! Path metrics, the same for every planner and every table: length, total turning angle
-//! (patrol car paper eq. 17), number of turns, minimum clearance, and feasibility.
+//! (patrol car paper eq. 17), number of turns, minimum and mean clearance, the costmap cost
+//! along the path, and feasibility.
 
 use crate::geometry::{wrap_angle, Cell, Point2};
 use crate::grid::inflation::PlanningGrid;
@@ -20,6 +21,14 @@ pub struct PathMetrics {
     /// Smallest clearance (m, cell centre to nearest obstacle cell centre) of any cell the path
     /// touches.
     pub min_clearance_m: f64,
+    /// Clearance (m) averaged over the path's length: how far from obstacles the robot drives
+    /// on the whole, where `min_clearance_m` says only how close it comes once. Infinite on a
+    /// map without obstacles.
+    pub mean_clearance_m: f64,
+    /// The costmap cost (see [`PlanningGrid::cost`], 0..252 for free cells) integrated along the
+    /// path, as `sum cost / 252 * ds` in metres: 0 for a path that keeps out of the inflation
+    /// radius everywhere, the path's length for one that grazes the inflated band all along.
+    pub path_cost: f64,
     /// Every segment crosses only free cells of the planning grid.
     pub collision_free: bool,
 }
@@ -102,6 +111,48 @@ pub fn min_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
     best
 }
 
+/// Samples a polyline (grid coordinates) every `step` cells or less: each sample's cell and the
+/// length (cells) it stands for.
+fn samples(points: &[Point2], step: f64) -> impl Iterator<Item = (Cell, f64)> + '_ {
+    points.windows(2).flat_map(move |w| {
+        let d = w[1] - w[0];
+        let len = d.norm();
+        let n = ((len / step).ceil() as usize).max(1);
+        let ds = len / n as f64;
+        (0..n).map(move |k| {
+            (
+                Cell::containing(w[0] + d * ((k as f64 + 0.5) / n as f64)),
+                ds,
+            )
+        })
+    })
+}
+
+/// Clearance (m) averaged over the length of a polyline (grid coordinates).
+pub fn mean_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+    let (mut sum, mut len) = (0.0, 0.0);
+    for (c, ds) in samples(points, 0.25) {
+        sum += grid.clearance(c) * ds;
+        len += ds;
+    }
+    if len > 0.0 {
+        sum / len
+    } else {
+        points
+            .first()
+            .map_or(0.0, |p| grid.clearance(Cell::containing(*p)))
+    }
+}
+
+/// The costmap cost integrated along a polyline (grid coordinates): `sum cost / 252 * ds`, in
+/// metres.
+pub fn path_cost(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+    samples(points, 0.25)
+        .map(|(c, ds)| grid.cost(c) as f64 / 252.0 * ds)
+        .sum::<f64>()
+        * grid.resolution()
+}
+
 /// All metrics of a polyline given in grid coordinates; lengths are reported in metres.
 pub fn measure(grid: &PlanningGrid, points: &[Point2]) -> PathMetrics {
     PathMetrics {
@@ -109,6 +160,8 @@ pub fn measure(grid: &PlanningGrid, points: &[Point2]) -> PathMetrics {
         turning_rad: total_turning(points),
         turns: turn_count(points),
         min_clearance_m: min_clearance(grid, points),
+        mean_clearance_m: mean_clearance(grid, points),
+        path_cost: path_cost(grid, points),
         collision_free: path_is_free(grid, points),
     }
 }

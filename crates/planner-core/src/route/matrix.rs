@@ -349,7 +349,7 @@ mod tests {
             tolerance: 0.0,
         };
         let astar = solve(
-            &AStar,
+            &AStar::default(),
             &grid,
             &q,
             SolveOptions::default(),

@@ -271,7 +271,7 @@ mod tests {
             let q = Query { start: start.center(), goal: goal.center(), tolerance: 0.0 };
             let mut r = rng(seed);
             let any = solve(&AnyAngle, &grid, &q, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut r));
-            let astar = solve(&crate::search::astar::AStar, &grid, &q, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut r));
+            let astar = solve(&crate::search::astar::AStar::default(), &grid, &q, SolveOptions::default(), &mut PlanContext::never_interrupted(&mut r));
             match (brute_force(&grid, start.center(), goal.center()), any, astar) {
                 (None, Err(PlanError::NoValidPath(_)), Err(PlanError::NoValidPath(_))) => {}
                 (Some(best), Ok(any), Ok(astar)) => {

@@ -8,3 +8,33 @@
 
 pub mod any_angle;
 pub mod astar;
+
+use crate::params::{check, ParamError, Range};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the graph searches.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SearchParams {
+    /// `astar`'s weight on the costmap cost (Nav2's Smac 2D `cost_travel_multiplier`): a step
+    /// into a cell of cost `c` costs its length times `1 + multiplier * c / 252`. 0 (default):
+    /// pure length, the papers' baseline; Nav2's default is 2.0.
+    pub cost_travel_multiplier: f64,
+}
+
+impl Default for SearchParams {
+    fn default() -> Self {
+        Self {
+            cost_travel_multiplier: 0.0,
+        }
+    }
+}
+
+impl SearchParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check(
+            Range::NonNegative,
+            &[("search.cost_travel_multiplier", self.cost_travel_multiplier)],
+        )
+    }
+}
