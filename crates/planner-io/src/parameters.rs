@@ -65,6 +65,11 @@ pub struct NodeParams {
     /// `bond` this often, so Nav2's lifecycle manager can bond with it as with its own servers.
     /// 0: no bond.
     pub bond_heartbeat_period: f64,
+    /// A costmap to plan on, as Nav2's costmap_2d publishes it (nav_msgs/OccupancyGrid, e.g.
+    /// `/global_costmap/costmap`): with it the node plans on that costmap, its obstacles,
+    /// inflation and graded costs as they are, instead of its own inflation of `map`, which it
+    /// then leaves alone. Empty (default): plan on `map`.
+    pub costmap_topic: String,
 }
 
 impl Default for NodeParams {
@@ -87,6 +92,7 @@ impl Default for NodeParams {
             use_final_approach_orientation: false,
             expected_planner_frequency: 1.0,
             bond_heartbeat_period: 0.1,
+            costmap_topic: String::new(),
         }
     }
 }

@@ -189,6 +189,15 @@ pub fn diagnostics(
                 kv("iterations", plan.stats.iterations.to_string()),
                 kv("length_m", format!("{:.4}", plan.metrics.length_m)),
                 kv("turning_rad", format!("{:.4}", plan.metrics.turning_rad)),
+                kv(
+                    "min_clearance_m",
+                    format!("{:.4}", plan.metrics.min_clearance_m),
+                ),
+                kv(
+                    "mean_clearance_m",
+                    format!("{:.4}", plan.metrics.mean_clearance_m),
+                ),
+                kv("path_cost", format!("{:.4}", plan.metrics.path_cost)),
                 kv("cut_short", plan.stats.cut_short.to_string()),
                 kv(
                     "termination",

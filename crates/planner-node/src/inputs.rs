@@ -28,19 +28,20 @@ pub async fn receive_maps(
     o: Outputs,
     sub: Subscription<OccupancyGrid>,
     slot: watch::Sender<GoalSlot>,
+    source: &'static str,
 ) {
     loop {
         match sub.async_take().await {
             Ok((msg, _)) => {
                 match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
                     Ok(Ok(map)) => {
-                        install_map(&s, map, "/map").await;
+                        install_map(&s, map, source).await;
                         replan_if_blocked(&s, &slot);
                     }
                     Ok(Err(e)) => {
                         let f = Failure::new(
                             ResultCode::InvalidInput,
-                            format!("map on /map refused, keeping the last good one: {e}"),
+                            format!("map on {source} refused, keeping the last good one: {e}"),
                         );
                         let planner = s.live.read().expect("lock").planner;
                         o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;

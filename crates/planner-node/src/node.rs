@@ -150,6 +150,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let map_pub =
         Arc::new(node.create_publisher::<OccupancyGrid>(&map_topic, Some(latched.clone()))?);
     let map_sub = node.create_subscription::<OccupancyGrid>(&map_topic, Some(latched.clone()))?;
+    let costmap_sub = if params.costmap_topic.is_empty() {
+        None
+    } else {
+        // costmap_2d publishes its costmap latched and reliable.
+        let t = topic(
+            &mut node,
+            &params.costmap_topic,
+            "nav_msgs",
+            "OccupancyGrid",
+            &latched,
+        )?;
+        Some(node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?)
+    };
     let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
     let diag_topic = topic(
@@ -371,7 +384,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         {
             Ok(map) => {
                 let msg = convert::msg_from_grid(&map, &params.global_frame, ros_edge::now());
-                install_map(&shared, map, "map_yaml").await;
+                if params.costmap_topic.is_empty() {
+                    install_map(&shared, map, "map_yaml").await;
+                }
                 if let Err(e) = map_pub.async_publish(msg).await {
                     error!("publishing the map on /map: {e:?}");
                 }
@@ -381,11 +396,17 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     }
 
     let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
+    // The planning grid comes from the costmap topic when one is set, else from /map.
+    let (grid_sub, grid_source) = match costmap_sub {
+        Some(sub) => (sub, "the costmap topic"),
+        None => (map_sub, "/map"),
+    };
     tasks.spawn(inputs::receive_maps(
         shared.clone(),
         out.clone(),
-        map_sub,
+        grid_sub,
         goal_tx.clone(),
+        grid_source,
     ));
     tasks.spawn(inputs::receive_start_poses(
         shared.clone(),

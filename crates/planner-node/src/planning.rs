@@ -123,8 +123,17 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
 pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
     let costmap = s.planning.costmap.clone();
     let (w, h) = (map.width(), map.height());
+    // With a costmap topic the costmap is the planning grid, taken as it is (already inflated,
+    // graded); otherwise the node inflates the map itself.
+    let as_costmap = !s.params.costmap_topic.is_empty();
     match tokio::task::spawn_blocking(move || {
-        PlanningGrid::new(&map, &costmap).map(|grid| MapState { grid })
+        if as_costmap {
+            Ok(MapState {
+                grid: PlanningGrid::from_costmap(&map, costmap.allow_unknown),
+            })
+        } else {
+            PlanningGrid::new(&map, &costmap).map(|grid| MapState { grid })
+        }
     })
     .await
     {

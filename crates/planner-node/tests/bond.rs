@@ -48,7 +48,9 @@ async fn an_active_node_sends_the_bond_heartbeat() {
             &qos,
         )
         .unwrap();
-    let bond = node.create_subscription::<Status>(&topic, Some(qos)).unwrap();
+    let bond = node
+        .create_subscription::<Status>(&topic, Some(qos))
+        .unwrap();
     let deadline = Instant::now() + Duration::from_secs(20);
     let mut beats = Vec::new();
     while Instant::now() < deadline && beats.len() < 3 {
@@ -68,7 +70,9 @@ async fn an_active_node_sends_the_bond_heartbeat() {
         assert!(!s.instance_id.is_empty());
         assert!((s.heartbeat_period - 0.2).abs() < 1e-6);
     }
-    assert!(beats.windows(2).all(|w| w[0].1.instance_id == w[1].1.instance_id));
+    assert!(beats
+        .windows(2)
+        .all(|w| w[0].1.instance_id == w[1].1.instance_id));
     let span = beats[2].0 - beats[0].0;
     assert!(span < Duration::from_secs(2), "heartbeats {span:?} apart");
 }

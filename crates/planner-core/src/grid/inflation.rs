@@ -115,6 +115,8 @@ pub struct PlanningGrid {
     inflation_radius: f64,
     /// How clearance becomes a graded cost (see [`PlanningGrid::cost`]).
     costs: CostModel,
+    /// Costs given cell by cell (a costmap received as is), instead of the model's.
+    given_costs: Option<Vec<u8>>,
     /// Free cells, with a one-cell blocked border (row stride `width + 2`): lets the graph
     /// searches step to any 8-neighbour without a bounds check.
     padded_free: Vec<bool>,
@@ -142,6 +144,28 @@ impl PlanningGrid {
                 cost_scaling_factor: cfg.cost_scaling_factor,
             }),
         )
+    }
+
+    /// A grid from a costmap as costmap_2d publishes it on a nav_msgs/OccupancyGrid (Nav2's
+    /// `/global_costmap/costmap`): 100 lethal, 99 inscribed, 1..98 the graded costs, 0 free, -1
+    /// unknown. Its obstacles are already inflated, so nothing is grown: the robot's centre may
+    /// be in every cell below inscribed (and in unknown ones with `allow_unknown`), and each
+    /// cell's cost is the costmap's own, translated back to the 0..254 scale.
+    pub fn from_costmap(map: &GridMap, allow_unknown: bool) -> Self {
+        let data = map.data();
+        let lethal: Vec<bool> = data
+            .iter()
+            .map(|&v| v >= 100 || (v == UNKNOWN && !allow_unknown))
+            .collect();
+        let mut grid = Self::from_obstacles(*map.info(), lethal, 0.0);
+        let w = grid.width();
+        for (i, &v) in data.iter().enumerate() {
+            if v == 99 {
+                grid.padded_free[(i / w + 1) * (w + 2) + i % w + 1] = false;
+            }
+        }
+        grid.given_costs = Some(data.iter().map(|&v| cost_from_occupancy(v)).collect());
+        grid
     }
 
     /// The same grid with another cost model.
@@ -185,6 +209,7 @@ impl PlanningGrid {
                 inflation_radius: default_inflation_radius().max(radius),
                 cost_scaling_factor: default_cost_scaling_factor(),
             },
+            given_costs: None,
             padded_free,
         }
     }
@@ -230,6 +255,9 @@ impl PlanningGrid {
     pub fn cost(&self, c: Cell) -> u8 {
         if !self.info.contains(c) {
             return LETHAL;
+        }
+        if let Some(given) = &self.given_costs {
+            return given[self.info.index(c)];
         }
         let d = self.clearance(c);
         if d <= 0.0 {
@@ -317,6 +345,18 @@ pub const LETHAL: u8 = 254;
 pub const INSCRIBED: u8 = 253;
 /// The highest cost of a cell the robot may be in.
 pub const MAX_NON_OBSTACLE: u8 = 252;
+
+/// A costmap cell's cost from its OccupancyGrid value, inverting costmap_2d's publisher (which
+/// maps 0 -> 0, 1..252 -> 1 + 97 * (cost - 1) / 251, 253 -> 99, 254 -> 100, 255 -> -1).
+pub fn cost_from_occupancy(v: i8) -> u8 {
+    match v {
+        100.. => LETHAL,
+        99 => INSCRIBED,
+        1..=98 => (1 + (v as u32 - 1) * 251 / 97).min(MAX_NON_OBSTACLE as u32) as u8,
+        0 => 0,
+        _ => 255,
+    }
+}
 
 /// costmap_2d's inflation layer: how a free cell's clearance becomes its cost.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -569,6 +609,31 @@ mod tests {
         let costs: Vec<u8> = (3..20).map(|x| g.cost(Cell::new(x, 0))).collect();
         assert!(costs.windows(2).all(|w| w[0] >= w[1]), "{costs:?}");
         assert_eq!(g.cost(Cell::new(19, 0)), 0);
+    }
+
+    /// A costmap as costmap_2d publishes it plans as it is: lethal and inscribed cells blocked,
+    /// nothing grown, the graded values back on the 0..252 scale.
+    #[test]
+    fn a_published_costmap_is_taken_as_is() {
+        let info = MapInfo {
+            width: 6,
+            height: 1,
+            resolution: 0.1,
+            origin: Pose2::default(),
+        };
+        let map = GridMap::new(info, vec![100, 99, 98, 50, 0, -1]).unwrap();
+        let g = PlanningGrid::from_costmap(&map, false);
+        let free: Vec<bool> = (0..6).map(|x| g.is_free(Cell::new(x, 0))).collect();
+        assert_eq!(free, vec![false, false, true, true, true, false]);
+        let costs: Vec<u8> = (0..6).map(|x| g.cost(Cell::new(x, 0))).collect();
+        assert_eq!(costs, vec![254, 253, 252, 127, 0, 255]);
+        assert!(PlanningGrid::from_costmap(&map, true).is_free(Cell::new(5, 0)));
+        // Round trip of costmap_2d's own translation for every graded cost.
+        for cost in 1u32..=252 {
+            let v = (1 + 97 * (cost - 1) / 251) as i8;
+            let back = cost_from_occupancy(v) as u32;
+            assert!(back <= cost && cost - back <= 3, "{cost} -> {v} -> {back}");
+        }
     }
 
     #[test]

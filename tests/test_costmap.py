@@ -1,0 +1,50 @@
+"""Planning on Nav2's costmap: with `costmap_topic` set, the node takes a nav_msgs/OccupancyGrid
+as costmap_2d publishes it (0 free, 1..98 graded, 99 inscribed, 100 lethal) as its planning grid,
+and cost-aware A* (`search.cost_travel_multiplier`) goes round a band of high (not lethal) cost
+across the direct route, through the gap beside it. /diagnostics reports the plan's clearance and
+cost. The node runs on a domain of its own; nothing is published on /map."""
+import numpy as np
+import rclpy
+from nav_msgs.msg import OccupancyGrid
+
+from conftest import LATCHED, Ros, domain_id, initial_pose, stamped, start_node, stop_binary
+from test_node import grid_msg
+
+TOPIC = "/global_costmap/costmap"
+RES = 0.1
+
+
+def test_a_high_cost_band_on_the_costmap_is_avoided(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
+        f"    costmap_topic: {TOPIC}\n    search: {{cost_travel_multiplier: 2.0}}\n"
+    )
+    domain = domain_id(30)
+    proc = start_node(domain, params, "costmap_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        # 10 m x 6 m; a 3 m band at x 3.5..6.5 m from y 0 to 4.5 m, free above it. Its value, 60,
+        # is a graded cost (about 153 of 252) on a costmap, but below the occupancy threshold (65)
+        # of a map: planned as a map, the band would be free and the plan would run straight.
+        grid = np.zeros((60, 100), dtype=np.int8)
+        grid[0:45, 35:65] = 60
+        costmap_pub = ros.node.create_publisher(OccupancyGrid, TOPIC, LATCHED)
+        ros.wait_matched(costmap_pub, TOPIC)
+        costmap_pub.publish(grid_msg(grid, origin=(0.0, 0.0), res=RES))
+        ros.wait_matched(ros.initial_pub, "/initialpose")
+        ros.initial_pub.publish(initial_pose(1.0, 2.0))
+        ros.send_goal_until_planned(stamped(9.0, 2.0))
+        plan = [p for p in ros.plans if p.poses][-1]
+        crossing = [
+            (p.pose.position.x, p.pose.position.y) for p in plan.poses
+            if grid[int(p.pose.position.y / RES), int(p.pose.position.x / RES)] > 0
+        ]
+        assert not crossing, f"the plan crosses the high-cost band at {crossing[:3]}"
+        assert max(p.pose.position.y for p in plan.poses) >= 4.5, "the plan should go through the gap"
+        statuses = [d for d in ros.diagnostics_since(0) if d[0] == "NONE"]
+        assert statuses and float(statuses[-1][2]["path_cost"]) < 0.5
+        assert "mean_clearance_m" in statuses[-1][2]
+    finally:
+        ros.close()
+        stop_binary(proc)
