@@ -75,6 +75,7 @@ impl Workspace {
         let mut ctx = PlanContext::new(&mut rng, &interrupt);
         let options = SolveOptions {
             smoothing: self.config.smoothing,
+            start_tolerance: self.config.start_tolerance,
         };
         let result = planner_core::solve(p.as_ref(), &self.grid, query, options, &mut ctx);
         Ok((result, t0.elapsed()))

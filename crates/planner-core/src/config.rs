@@ -26,6 +26,9 @@ pub struct PlannerConfig {
     pub seed: Option<u64>,
     /// How far (m) an occupied goal may be moved to the nearest free cell. Default 0.25.
     pub tolerance: f64,
+    /// How far (m) a start inside the inflated band may be moved to the nearest free cell
+    /// instead of failing with START_OCCUPIED. Default 0.25.
+    pub start_tolerance: f64,
     /// Force the delete operation on (`true`) or off (`false`) for every planner; unset follows
     /// each planner's default.
     pub smoothing: Option<bool>,
@@ -62,6 +65,7 @@ impl Default for PlannerConfig {
             planner: default_planner(),
             seed: None,
             tolerance: default_tolerance(),
+            start_tolerance: default_tolerance(),
             smoothing: None,
             max_planning_time: default_max_planning_time(),
             costmap: InflationConfig::default(),
@@ -80,6 +84,7 @@ impl PlannerConfig {
             Range::NonNegative,
             &[
                 ("tolerance", self.tolerance),
+                ("start_tolerance", self.start_tolerance),
                 ("max_planning_time", self.max_planning_time),
             ],
         )?;

@@ -188,6 +188,10 @@ pub struct SolveOptions {
     /// Apply the delete operation (genetic algorithm paper section 4.5): `None` follows
     /// [`Planner::smooth_by_default`].
     pub smoothing: Option<bool>,
+    /// How far (m) a start inside the inflated band may move to the nearest free cell instead
+    /// of failing with START_OCCUPIED (a robot pushed against a wall, or a map update that
+    /// grew an obstacle under it: navigation2 issues 5685, 6120). 0: never.
+    pub start_tolerance: f64,
 }
 
 /// Validates a request, runs the planner, post-processes, verifies and measures its path.
@@ -198,7 +202,7 @@ pub fn solve(
     options: SolveOptions,
     ctx: &mut PlanContext<'_>,
 ) -> Result<Plan, PlanError> {
-    let problem = validate(grid, query)?;
+    let problem = validate_with(grid, query, options.start_tolerance)?;
     let mut raw = if problem.start == problem.goal {
         // The goal lies in the start's own cell: the straight segment inside one free cell is
         // the path (Nav2's planners answer such a request with a one- or two-pose path). No
@@ -242,6 +246,16 @@ pub fn solve(
 
 /// Checks a world-frame request against the grid and turns it into a [`Problem`].
 pub fn validate<'a>(grid: &'a PlanningGrid, query: &Query) -> Result<Problem<'a>, PlanError> {
+    validate_with(grid, query, 0.0)
+}
+
+/// [`validate`], letting an occupied start move up to `start_tolerance` (m) to the nearest free
+/// cell (the plan then starts at that cell's centre).
+pub fn validate_with<'a>(
+    grid: &'a PlanningGrid,
+    query: &Query,
+    start_tolerance: f64,
+) -> Result<Problem<'a>, PlanError> {
     let finite = |p: Point2| p.x.is_finite() && p.y.is_finite();
     if !finite(query.start) {
         return Err(PlanError::InvalidInput(format!(
@@ -262,16 +276,20 @@ pub fn validate<'a>(grid: &'a PlanningGrid, query: &Query) -> Result<Problem<'a>
         )));
     }
     let info = grid.info();
-    let start_point = info.world_to_grid(query.start);
+    let mut start_point = info.world_to_grid(query.start);
     let mut goal_point = info.world_to_grid(query.goal);
-    let start = info
+    let mut start = info
         .world_to_cell(query.start)
         .ok_or(PlanError::StartOutsideMap(query.start))?;
     let mut goal = info
         .world_to_cell(query.goal)
         .ok_or(PlanError::GoalOutsideMap(query.goal))?;
     if !grid.is_free(start) {
-        return Err(PlanError::StartOccupied(query.start));
+        let moved = (start_tolerance.is_finite() && start_tolerance > 0.0)
+            .then(|| grid.nearest_free(start, start_tolerance / info.resolution))
+            .flatten();
+        start = moved.ok_or(PlanError::StartOccupied(query.start))?;
+        start_point = start.center();
     }
     if !grid.is_free(goal) {
         let snapped = (query.tolerance > 0.0)

@@ -238,4 +238,55 @@ mod tests {
             }
         }
     }
+
+    /// A start inside the inflated band moves to the nearest free cell within the start
+    /// tolerance (the plan starts there); beyond it, or with tolerance 0, START_OCCUPIED.
+    #[test]
+    fn a_start_in_the_inflated_band_moves_to_free_space_within_the_tolerance() {
+        use crate::geometry::{Point2, Pose2};
+        use crate::grid::{MapInfo, PlanningGrid};
+        use crate::planner::{solve, PlanContext, PlanError, Query, SolveOptions};
+        use crate::test_support::rng;
+        // 40 x 20 cells of 0.1 m, a wall along row 0, inflated by 0.3 m.
+        let info = MapInfo {
+            width: 40,
+            height: 20,
+            resolution: 0.1,
+            origin: Pose2::default(),
+        };
+        let obstacle: Vec<bool> = (0..800).map(|i| i / 40 == 0).collect();
+        let grid = PlanningGrid::from_obstacles(info, obstacle, 0.3);
+        let q = Query {
+            start: Point2::new(1.05, 0.25), // 0.2 m from the wall: in the band (free from 0.45 m)
+            goal: Point2::new(3.05, 1.55),
+            tolerance: 0.0,
+        };
+        let planner = build(&PlannerConfig {
+            planner: PlannerName::Astar,
+            ..PlannerConfig::default()
+        })
+        .unwrap();
+        let run = |start_tolerance| {
+            let mut r = rng(0);
+            solve(
+                planner.as_ref(),
+                &grid,
+                &q,
+                SolveOptions {
+                    start_tolerance,
+                    ..SolveOptions::default()
+                },
+                &mut PlanContext::never_interrupted(&mut r),
+            )
+        };
+        assert_eq!(run(0.0).unwrap_err(), PlanError::StartOccupied(q.start));
+        assert_eq!(run(0.1).unwrap_err(), PlanError::StartOccupied(q.start));
+        let plan = run(0.25).unwrap();
+        let first = plan.waypoints[0];
+        assert!(
+            (first.x - 1.05).abs() < 1e-9 && (first.y - 0.45).abs() < 1e-9,
+            "{first:?}"
+        );
+        assert!(plan.metrics.collision_free);
+    }
 }

@@ -89,6 +89,7 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
         &query,
         SolveOptions {
             smoothing: config.smoothing,
+            start_tolerance: config.start_tolerance,
         },
         &mut ctx,
     );
