@@ -99,6 +99,18 @@ class Ros:
         rclpy.shutdown(context=self.context)
 
 
+def call_service(ros, srv_type, name, request, timeout=20):
+    """One call of the service `name` with a fresh rclpy client, as `ros2 service call` makes it."""
+    client = ros.node.create_client(srv_type, name)
+    try:
+        ros.spin_until(lambda: client.service_is_ready(), 20, f"the service {name}")
+        future = client.call_async(request)
+        ros.spin_until(future.done, timeout, f"the answer of {name}")
+        return future.result()
+    finally:
+        ros.node.destroy_client(client)
+
+
 BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
 
 

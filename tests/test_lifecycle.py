@@ -9,36 +9,25 @@ from lifecycle_msgs.msg import State, Transition
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 from nav_msgs.srv import GetPlan
 
-from conftest import ROOT, Ros, domain_id, stamped, start_node, stop_binary
+from conftest import ROOT, Ros, call_service, domain_id, stamped, start_node, stop_binary
 
 NODE = "/robot1/planner_server"
 
 
-def call(ros, srv_type, name, request, timeout=20):
-    client = ros.node.create_client(srv_type, name)
-    try:
-        ros.spin_until(lambda: client.service_is_ready(), 20, f"the service {name}")
-        future = client.call_async(request)
-        ros.spin_until(future.done, timeout, f"the answer of {name}")
-        return future.result()
-    finally:
-        ros.node.destroy_client(client)
-
-
 def state(ros):
-    return call(ros, GetState, f"{NODE}/get_state", GetState.Request()).current_state
+    return call_service(ros, GetState, f"{NODE}/get_state", GetState.Request()).current_state
 
 
 def change(ros, transition_id):
     req = ChangeState.Request()
     req.transition.id = transition_id
-    return call(ros, ChangeState, f"{NODE}/change_state", req).success
+    return call_service(ros, ChangeState, f"{NODE}/change_state", req).success
 
 
 def get_plan(ros):
     req = GetPlan.Request()
     req.start, req.goal = stamped(0.1, 0.1), stamped(8.1, 6.9)
-    return call(ros, GetPlan, f"{NODE}/make_plan", req).plan
+    return call_service(ros, GetPlan, f"{NODE}/make_plan", req).plan
 
 
 def test_lifecycle_transitions_gate_planning_under_a_remapped_name(tmp_path):
@@ -68,7 +57,7 @@ def test_lifecycle_transitions_gate_planning_under_a_remapped_name(tmp_path):
 
         assert change(ros, Transition.TRANSITION_CONFIGURE)
         assert state(ros).label == "inactive"
-        labels = {t.transition.label for t in call(
+        labels = {t.transition.label for t in call_service(
             ros, GetAvailableTransitions, f"{NODE}/get_available_transitions", GetAvailableTransitions.Request()
         ).available_transitions}
         assert labels == {"cleanup", "activate", "shutdown"}

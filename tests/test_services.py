@@ -10,27 +10,16 @@ from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
 from rclpy.serialization import serialize_message
 from nav_msgs.srv import GetPlan
 
-from conftest import stamped
+from conftest import call_service, stamped
 from test_node import ORIGIN, assert_collision_free, plan_to, use_test_map, world
 
 MAKE_PLAN = "/patrol_planner/make_plan"
 
 
-def call(ros, srv_type, name, request, timeout=20):
-    client = ros.node.create_client(srv_type, name)
-    try:
-        ros.spin_until(lambda: client.service_is_ready(), 20, f"the service {name}")
-        future = client.call_async(request)
-        ros.spin_until(future.done, timeout, f"the answer of {name}")
-        return future.result()
-    finally:
-        ros.node.destroy_client(client)
-
-
 def get_plan(ros, start, goal, tolerance=0.0):
     req = GetPlan.Request()
     req.start, req.goal, req.tolerance = stamped(*start), stamped(*goal), float(tolerance)
-    return call(ros, GetPlan, MAKE_PLAN, req).plan
+    return call_service(ros, GetPlan, MAKE_PLAN, req).plan
 
 
 def set_param(ros, name, value):
@@ -39,11 +28,11 @@ def set_param(ros, name, value):
     else:
         v = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
     req = SetParameters.Request(parameters=[Parameter(name=name, value=v)])
-    return call(ros, SetParameters, "/patrol_planner/set_parameters", req).results[0]
+    return call_service(ros, SetParameters, "/patrol_planner/set_parameters", req).results[0]
 
 
 def get_param(ros, name):
-    return call(ros, GetParameters, "/patrol_planner/get_parameters", GetParameters.Request(names=[name])).values[0]
+    return call_service(ros, GetParameters, "/patrol_planner/get_parameters", GetParameters.Request(names=[name])).values[0]
 
 
 def test_get_plan_answers_with_a_collision_free_plan(ros):
@@ -76,7 +65,7 @@ def test_get_plan_failure_is_an_empty_plan_with_its_code(ros):
 
 def test_parameters_switch_the_planner_and_refuse_bad_values(ros):
     grid = use_test_map(ros)
-    names = call(ros, ListParameters, "/patrol_planner/list_parameters", ListParameters.Request()).result.names
+    names = call_service(ros, ListParameters, "/patrol_planner/list_parameters", ListParameters.Request()).result.names
     assert {"planner", "max_planning_time", "tolerance"} <= set(names)
     default = get_param(ros, "planner").string_value
     assert default == "mocmcso", "config/planner.yaml's planner"

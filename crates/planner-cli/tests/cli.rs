@@ -1,29 +1,8 @@
 //! The `patrol-plan` binary, run as a user runs it, on the shared maps.
 
-use std::path::PathBuf;
-use std::process::Command;
 
-fn shared(p: &str) -> PathBuf {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/maps");
-    assert!(
-        root.is_dir(),
-        "{} is missing: the tests need ../shared beside the repository",
-        root.display()
-    );
-    root.join(p)
-}
-
-fn patrol_plan(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_patrol-plan"))
-        .args(args)
-        .output()
-        .expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+mod common;
+use common::{patrol_plan, shared};
 
 /// A* matches the published optimal length of every scenario of the small Moving AI maps.
 #[test]

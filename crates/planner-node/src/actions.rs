@@ -6,7 +6,7 @@
 //! goal on `/goal_pose` does; the actions plan only, they do not drive.
 
 use crate::outputs::Outputs;
-use crate::planning::{self, Request};
+use crate::planning;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::Shared;
 use log::{info, warn};
@@ -262,26 +262,12 @@ async fn run_goal<G: PlannerGoal>(
             Ok(p) => p,
             Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
         };
-        let s2 = s.clone();
         let stops2 = stops.clone();
-        let outcome = tokio::task::spawn_blocking(move || {
-            let stop = || {
-                stops2.newest.load(Ordering::SeqCst) != number
-                    || stops2.cancelled.lock().expect("lock").contains(&id)
-            };
-            planning::plan(
-                &s2,
-                Request {
-                    start: from,
-                    goal: to,
-                    tolerance,
-                    planner,
-                    cancelled: &stop,
-                },
-            )
-        })
-        .await
-        .unwrap_or_else(|e| Outcome::failed(PlannerName::Astar, 0, planning::task_failure(e)));
+        let stop = move || {
+            stops2.newest.load(Ordering::SeqCst) != number
+                || stops2.cancelled.lock().expect("lock").contains(&id)
+        };
+        let outcome = planning::plan_off_thread(s, from, to, tolerance, planner, stop).await;
         o.diagnose(s, &outcome).await;
         match &outcome.result {
             Ok((plan, _)) => {

@@ -177,7 +177,21 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
     } else {
         s.live.read().expect("lock").tolerance
     };
+    plan_off_thread(s, start, goal, tolerance, None, || false).await
+}
+
+/// [`plan`] on tokio's blocking pool, so the node keeps receiving meanwhile; a panic in the
+/// planner becomes an UNKNOWN answer (see [`task_failure`]).
+pub async fn plan_off_thread(
+    s: &Arc<Shared>,
+    start: Pose2,
+    goal: Pose2,
+    tolerance: f64,
+    planner: Option<PlannerName>,
+    cancelled: impl Fn() -> bool + Send + Sync + 'static,
+) -> Outcome {
     let s2 = s.clone();
+    let answering = planner.unwrap_or(s.live.read().expect("lock").planner);
     tokio::task::spawn_blocking(move || {
         plan(
             &s2,
@@ -185,13 +199,13 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
                 start,
                 goal,
                 tolerance,
-                planner: None,
-                cancelled: &|| false,
+                planner,
+                cancelled: &cancelled,
             },
         )
     })
     .await
-    .unwrap_or_else(|e| failed(task_failure(e)))
+    .unwrap_or_else(|e| Outcome::failed(answering, 0, task_failure(e)))
 }
 
 /// A planning task that did not return: a panic in a planner is a bug, never silent. It is
@@ -235,22 +249,8 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         };
         let tolerance = s.live.read().expect("lock").tolerance;
         let s2 = s.clone();
-        let planner = s.live.read().expect("lock").planner;
-        let outcome = tokio::task::spawn_blocking(move || {
-            let newer_goal = || s2.goals.load(Ordering::SeqCst) != id;
-            plan(
-                &s2,
-                Request {
-                    start,
-                    goal,
-                    tolerance,
-                    planner: None,
-                    cancelled: &newer_goal,
-                },
-            )
-        })
-        .await
-        .unwrap_or_else(|e| Outcome::failed(planner, 0, task_failure(e)));
+        let newer_goal = move || s2.goals.load(Ordering::SeqCst) != id;
+        let outcome = plan_off_thread(&s, start, goal, tolerance, None, newer_goal).await;
         if matches!(&outcome.result, Err(f) if f.code == ResultCode::Cancelled) {
             info!("plan for goal {id} cancelled by a newer goal");
             continue;
