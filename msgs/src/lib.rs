@@ -329,7 +329,38 @@ pub mod nav2_msgs {
         pub is_valid: bool,
         pub invalid_pose_indices: Vec<i32>,
     }
+    /// nav2_msgs/action/FollowWaypoints goal
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct FollowWaypointsGoal {
+        /// Loops after the first pass.
+        pub number_of_loops: u32,
+        /// The waypoint to start at.
+        pub goal_index: u32,
+        pub poses: Vec<PoseStamped>,
+    }
+    /// nav2_msgs/msg/MissedWaypoint
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct MissedWaypoint {
+        pub index: u32,
+        pub goal: PoseStamped,
+        pub error_code: u16,
+    }
+    /// nav2_msgs/action/FollowWaypoints result
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct FollowWaypointsResult {
+        pub missed_waypoints: Vec<MissedWaypoint>,
+        pub error_code: u16,
+        pub error_msg: String,
+    }
+    /// nav2_msgs/action/FollowWaypoints feedback
+    #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct FollowWaypointsFeedback {
+        pub current_waypoint: u32,
+    }
     messages!(
+        FollowWaypointsGoal,
+        FollowWaypointsResult,
+        FollowWaypointsFeedback,
         ComputePathToPoseGoal,
         ComputePathResult,
         EmptyFeedback,

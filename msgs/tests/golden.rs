@@ -420,4 +420,33 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::IS_PATH_VALID_RESPONSE,
     );
+    check(
+        "FollowWaypoints goal",
+        FollowWaypointsGoal {
+            number_of_loops: 2,
+            goal_index: 1,
+            poses: vec![stamped(1.0, 2.0), stamped(3.0, 4.0)],
+        },
+        g::FOLLOW_WAYPOINTS_GOAL,
+    );
+    check(
+        "FollowWaypoints result",
+        FollowWaypointsResult {
+            missed_waypoints: vec![MissedWaypoint {
+                index: 1,
+                goal: stamped(3.0, 4.0),
+                error_code: 206,
+            }],
+            error_code: 0,
+            error_msg: String::new(),
+        },
+        g::FOLLOW_WAYPOINTS_RESULT,
+    );
+    check(
+        "FollowWaypoints feedback",
+        FollowWaypointsFeedback {
+            current_waypoint: 3,
+        },
+        g::FOLLOW_WAYPOINTS_FEEDBACK,
+    );
 }

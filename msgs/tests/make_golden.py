@@ -14,7 +14,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose
+from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose, FollowWaypoints
+from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import IsPathValid
 
 
@@ -105,6 +106,12 @@ def messages():
         goals=[pose_stamped(1.0, 2.0), pose_stamped(3.0, 4.0)], start=pose_stamped(0.5, 0.5), planner_id="", use_start=False)
     out["IS_PATH_VALID_REQUEST"] = IsPathValid.Request(path=Path(header=header(), poses=[pose_stamped(1.0, 2.0)]))
     out["IS_PATH_VALID_RESPONSE"] = IsPathValid.Response(is_valid=False, invalid_pose_indices=[3, 7])
+    out["FOLLOW_WAYPOINTS_GOAL"] = FollowWaypoints.Goal(
+        number_of_loops=2, goal_index=1, poses=[pose_stamped(1.0, 2.0), pose_stamped(3.0, 4.0)])
+    out["FOLLOW_WAYPOINTS_RESULT"] = FollowWaypoints.Result(
+        missed_waypoints=[MissedWaypoint(index=1, goal=pose_stamped(3.0, 4.0), error_code=206)],
+        error_code=0, error_msg="")
+    out["FOLLOW_WAYPOINTS_FEEDBACK"] = FollowWaypoints.Feedback(current_waypoint=3)
     return out
 
 

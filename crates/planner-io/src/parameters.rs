@@ -70,6 +70,11 @@ pub struct NodeParams {
     /// inflation and graded costs as they are, instead of its own inflation of `map`, which it
     /// then leaves alone. Empty (default): plan on `map`.
     pub costmap_topic: String,
+    /// follow_waypoints: put the waypoints in the fastest order before driving them (the route
+    /// planner's), instead of the order given.
+    pub order_waypoints: bool,
+    /// follow_waypoints: how long (s) to stay at each waypoint (Nav2's WaitAtWaypoint).
+    pub waypoint_pause_duration: f64,
 }
 
 impl Default for NodeParams {
@@ -93,6 +98,8 @@ impl Default for NodeParams {
             expected_planner_frequency: 1.0,
             bond_heartbeat_period: 0.1,
             costmap_topic: String::new(),
+            order_waypoints: true,
+            waypoint_pause_duration: 0.0,
         }
     }
 }
@@ -114,9 +121,10 @@ impl NodeParams {
         let non_negative = |v: f64| v.is_finite() && v >= 0.0;
         if !non_negative(self.expected_planner_frequency)
             || !non_negative(self.bond_heartbeat_period)
+            || !non_negative(self.waypoint_pause_duration)
         {
             return Err(
-                "expected_planner_frequency and bond_heartbeat_period must be finite and not negative"
+                "expected_planner_frequency, bond_heartbeat_period and waypoint_pause_duration must be finite and not negative"
                     .into(),
             );
         }

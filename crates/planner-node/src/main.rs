@@ -14,6 +14,7 @@ mod localization;
 mod node;
 mod outputs;
 mod params;
+mod patrol;
 mod planning;
 mod result;
 mod state;

@@ -43,7 +43,8 @@ use patrol_msgs::lifecycle_msgs::{
 };
 use patrol_msgs::nav2_msgs::{
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
-    IsPathValidRequest, IsPathValidResponse,
+    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
+    IsPathValidResponse,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -261,6 +262,16 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             action_qos(),
         )?,
     );
+    let follow_waypoints = AsyncActionServer::new(node.create_action_server::<
+        FollowWaypointsGoal,
+        FollowWaypointsResult,
+        FollowWaypointsFeedback,
+    >(
+        ServiceMapping::Enhanced,
+        &naming.name("follow_waypoints")?,
+        &ActionTypeName::new("nav2_msgs", "FollowWaypoints"),
+        action_qos(),
+    )?);
     let is_path_valid = node.create_server::<IsPathValidRequest, IsPathValidResponse>(
         ServiceMapping::Enhanced,
         &naming.name("is_path_valid")?,
@@ -454,6 +465,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     tasks.spawn(actions::serve(shared.clone(), out.clone(), to_pose));
     tasks.spawn(actions::serve(shared.clone(), out.clone(), through_poses));
     tasks.spawn(actions::serve_is_path_valid(shared.clone(), is_path_valid));
+    tasks.spawn(crate::patrol::serve(
+        shared.clone(),
+        out.clone(),
+        follow_waypoints,
+    ));
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),
         out.clone(),

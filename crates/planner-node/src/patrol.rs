@@ -1,0 +1,308 @@
+//! Patrols: Nav2's `follow_waypoints` action (nav2_msgs/FollowWaypoints, Jazzy), driven by this
+//! node itself. The waypoints are put in the fastest order first (planner-core's route ordering:
+//! Held-Karp up to 12 points, 2-opt/Or-opt above, with the driving-time model at the chassis'
+//! limits; `order_waypoints`), then each leg is planned from where the robot is, followed,
+//! finished facing the waypoint's heading, and paused at for `waypoint_pause_duration` (Nav2's
+//! WaitAtWaypoint); `number_of_loops` more passes follow. A waypoint that cannot be planned to or
+//! reached in time is reported missed (its index in the request and the planner's Nav2 code)
+//! and the patrol goes on. Cancel stops the robot within the acceleration limits.
+
+use crate::actions::nav2_code;
+use crate::outputs::Outputs;
+use crate::planning;
+use crate::state::Shared;
+use chassis::follower::Follower;
+use log::{info, warn};
+use patrol_msgs::nav2_msgs::{
+    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, MissedWaypoint,
+};
+use planner_core::geometry::Pose2;
+use planner_core::route::file::{RouteFile, RoutePoint, RoutePose};
+use planner_core::route::{plan_route, RouteOptions};
+use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// FollowWaypoints' TASK_EXECUTOR_FAILED: the code of a waypoint not reached in time.
+const NOT_REACHED: u16 = 601;
+
+pub type Server =
+    AsyncActionServer<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>;
+
+/// Serves `follow_waypoints` until the node stops; a newer patrol preempts the running one.
+pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
+    let server = Arc::new(server);
+    let newest = Arc::new(AtomicU64::new(0));
+    let canceled = Arc::new(AtomicBool::new(false));
+    let cancels = {
+        let (server, canceled) = (server.clone(), canceled.clone());
+        async move {
+            loop {
+                let Ok(handle) = server.receive_cancel_request().await else {
+                    continue;
+                };
+                let goals: Vec<_> = handle.goals().collect();
+                if !goals.is_empty() {
+                    canceled.store(true, Ordering::SeqCst);
+                }
+                if let Err(e) = server
+                    .respond_to_cancel_requests(&handle, goals.into_iter())
+                    .await
+                {
+                    warn!("follow_waypoints cancel: {e:?}");
+                }
+            }
+        }
+    };
+    let goals = async move {
+        loop {
+            let Ok(handle) = server.receive_new_goal().await else {
+                continue;
+            };
+            let Some(goal) = server.get_new_goal(handle.clone()) else {
+                continue;
+            };
+            if let Some(refusal) = s.refusal() {
+                info!("follow_waypoints: goal rejected: {}", refusal.message);
+                let _ = server.reject_goal(handle).await;
+                continue;
+            }
+            let number = newest.fetch_add(1, Ordering::SeqCst) + 1;
+            canceled.store(false, Ordering::SeqCst);
+            let Ok(accepted) = server.accept_goal(handle).await else {
+                continue;
+            };
+            let Ok(executing) = server.start_executing_goal(accepted).await else {
+                continue;
+            };
+            let (s, o, server, newest, canceled) = (
+                s.clone(),
+                o.clone(),
+                server.clone(),
+                newest.clone(),
+                canceled.clone(),
+            );
+            tokio::spawn(async move {
+                let stop = move || {
+                    newest.load(Ordering::SeqCst) != number || canceled.load(Ordering::SeqCst)
+                };
+                let feedback = |i: u32| {
+                    let (server, executing) = (server.clone(), executing.clone());
+                    async move {
+                        let _ = server
+                            .publish_feedback(
+                                executing,
+                                FollowWaypointsFeedback {
+                                    current_waypoint: i,
+                                },
+                            )
+                            .await;
+                    }
+                };
+                let (status, result) = patrol(&s, &o, &goal, &stop, feedback).await;
+                if let Err(e) = server
+                    .send_result_response(executing.clone(), status, result)
+                    .await
+                {
+                    warn!("follow_waypoints result: {e:?}");
+                }
+            });
+        }
+    };
+    tokio::join!(goals, cancels);
+}
+
+/// The order to visit `poses` in from `robot`: the route planner's over the current map, or the
+/// given order when ordering is off or impossible (the reason is logged).
+fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2], first: usize) -> Vec<usize> {
+    let given: Vec<usize> = (first..poses.len()).chain(0..first).collect();
+    if !s.params.order_waypoints || poses.len() < 3 {
+        return given;
+    }
+    let Some(map) = s.map.read().expect("lock").clone() else {
+        return given;
+    };
+    let file = RouteFile {
+        start: Some(RoutePose {
+            x: robot.x,
+            y: robot.y,
+            yaw: robot.yaw,
+        }),
+        home: None,
+        points: poses
+            .iter()
+            .enumerate()
+            .map(|(i, p)| RoutePoint {
+                name: format!("w{i}"),
+                x: p.x,
+                y: p.y,
+                yaw: p.yaw,
+                dwell: s.params.waypoint_pause_duration,
+            })
+            .collect(),
+    };
+    match plan_route(&map.grid, &file, &RouteOptions::default(), None) {
+        Ok(plan) => {
+            let mut order: Vec<usize> = plan
+                .order
+                .iter()
+                .filter_map(|n| n.strip_prefix('w').and_then(|i| i.parse().ok()))
+                .collect();
+            // Skipped (unreachable) points still get their turn, to be reported missed.
+            let rest: Vec<usize> = given
+                .iter()
+                .copied()
+                .filter(|i| !order.contains(i))
+                .collect();
+            order.extend(rest);
+            info!(
+                "follow_waypoints: order {order:?} ({:.0} s predicted, {:.0} s in the given order)",
+                plan.total_time_s, plan.given_order_time_s
+            );
+            order
+        }
+        Err(e) => {
+            warn!("follow_waypoints: keeping the given order: {e}");
+            given
+        }
+    }
+}
+
+/// One patrol: every pass, every waypoint in order.
+async fn patrol<F, Fut>(
+    s: &Arc<Shared>,
+    o: &Outputs,
+    goal: &FollowWaypointsGoal,
+    stop: &(dyn Fn() -> bool + Send + Sync),
+    feedback: F,
+) -> (GoalEndStatus, FollowWaypointsResult)
+where
+    F: Fn(u32) -> Fut,
+    Fut: std::future::Future<Output = ()>,
+{
+    let frame = s.params.global_frame.clone();
+    let mut result = FollowWaypointsResult::default();
+    let mut poses = Vec::with_capacity(goal.poses.len());
+    for (i, p) in goal.poses.iter().enumerate() {
+        match crate::convert::pose_in_frame(p, &frame) {
+            Ok(pose) => poses.push(pose),
+            Err(f) => {
+                result.error_code = 600;
+                result.error_msg = format!("waypoint {i}: {}", f.message);
+                return (GoalEndStatus::Aborted, result);
+            }
+        }
+    }
+    if poses.is_empty() {
+        result.error_msg = "no waypoints given".into();
+        return (GoalEndStatus::Succeeded, result);
+    }
+    // A patrol sent right after start-up may arrive before the first pose: wait a little for it,
+    // as Nav2 waits for its transform.
+    let asked = Instant::now();
+    while s.start.read().expect("lock").is_none() && asked.elapsed() < Duration::from_secs(3) {
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let Some(robot) = s.start.read().expect("lock").map(|(p, _)| p) else {
+        result.error_code = 600;
+        result.error_msg = "no robot pose yet: publish /initialpose, /amcl_pose or /odom".into();
+        return (GoalEndStatus::Aborted, result);
+    };
+    let first = (goal.goal_index as usize).min(poses.len() - 1);
+    let order = visiting_order(s, robot, &poses, first);
+    let tolerance = s.live.read().expect("lock").tolerance;
+    for pass in 0..=goal.number_of_loops {
+        for &i in &order {
+            if stop() {
+                brake(s);
+                return (GoalEndStatus::Canceled, result);
+            }
+            feedback(i as u32).await;
+            let missed = |code: u16| MissedWaypoint {
+                index: i as u32,
+                goal: goal.poses[i].clone(),
+                error_code: code,
+            };
+            let from = s.start.read().expect("lock").map_or(robot, |(p, _)| p);
+            let stop_leg = {
+                // The leg's plan stops with the patrol.
+                let s2 = s.clone();
+                let started = s2.goals.load(Ordering::SeqCst);
+                move || s2.goals.load(Ordering::SeqCst) != started
+            };
+            let outcome =
+                planning::plan_off_thread(s, from, poses[i], tolerance, None, stop_leg).await;
+            let path = o.publish(s, &outcome).await;
+            let Some(path) = path else {
+                let code = outcome
+                    .result
+                    .as_ref()
+                    .err()
+                    .map_or(0, |f| nav2_code(f.code, 200));
+                warn!("follow_waypoints: pass {pass}, waypoint {i} missed: cannot plan to it");
+                result.missed_waypoints.push(missed(code));
+                continue;
+            };
+            let points: Vec<(f64, f64)> = path
+                .poses
+                .iter()
+                .map(|q| (q.pose.position.x, q.pose.position.y))
+                .collect();
+            let length: f64 = points
+                .windows(2)
+                .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+                .sum();
+            let last = points.last().copied();
+            *s.followed.lock().expect("lock") = Some((poses[i], points.clone()));
+            *s.follower.lock().expect("lock") =
+                Follower::new(s.params.follower, points, poses[i].yaw);
+            // Time to drive it at a third of the speed limit, plus turning on the spot.
+            let limit = Duration::from_secs_f64(
+                20.0 + 3.0 * length / s.params.twist_limits.max_linear.max(0.05),
+            );
+            let started = Instant::now();
+            loop {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                if stop() {
+                    brake(s);
+                    return (GoalEndStatus::Canceled, result);
+                }
+                if s.follower.lock().expect("lock").is_none() {
+                    break;
+                }
+                if started.elapsed() > limit {
+                    brake(s);
+                    break;
+                }
+            }
+            // Reached where the plan ended: the waypoint, or the free cell it was moved to.
+            let target = last.unwrap_or((poses[i].x, poses[i].y));
+            let at = s.odom.read().expect("lock").map(|(p, _)| p);
+            let reached = at.is_some_and(|p| {
+                (p.x - target.0).hypot(p.y - target.1) <= 2.0 * s.params.follower.goal_tolerance
+            });
+            if !reached {
+                warn!("follow_waypoints: pass {pass}, waypoint {i} not reached");
+                result.missed_waypoints.push(missed(NOT_REACHED));
+                continue;
+            }
+            info!("follow_waypoints: pass {pass}, waypoint {i} reached");
+            let pause = Duration::from_secs_f64(s.params.waypoint_pause_duration);
+            let paused = Instant::now();
+            while paused.elapsed() < pause {
+                if stop() {
+                    return (GoalEndStatus::Canceled, result);
+                }
+                tokio::time::sleep(Duration::from_millis(100).min(pause)).await;
+            }
+        }
+    }
+    (GoalEndStatus::Succeeded, result)
+}
+
+/// Ends the drive: the follower loop brakes within the acceleration limits to a stop.
+fn brake(s: &Shared) {
+    *s.follower.lock().expect("lock") = None;
+    *s.followed.lock().expect("lock") = None;
+}
