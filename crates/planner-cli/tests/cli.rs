@@ -1,6 +1,5 @@
 //! The `patrol-plan` binary, run as a user runs it, on the shared maps.
 
-
 mod common;
 use common::{patrol_plan, shared};
 
