@@ -5,13 +5,16 @@
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --service
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 30 --service --fresh
     .venv/bin/python tests/send_goal.py --start 0.1 0.1 --goal 19.9 19.9 --repeat 20 --action
+    .venv/bin/python tests/send_goal.py --route config/routes/datacenter_patrol.yaml --loops 1
 
 It publishes the start (if given) on /initialpose, the goal on /goal_pose (what RViz's 2D Goal Pose sends)
 and waits for /plan and /diagnostics; with --service it asks /patrol_planner/make_plan (GetPlan)
 instead and times the call; --fresh makes a new client for every call, as each `ros2 service
 call` does, so discovery is part of the time; --action sends Nav2's ComputePathToPose (as
 nav2_simple_commander's getPath does; needs nav2_msgs from tests/build_interfaces.sh) and times
-goal -> result. Use the node's ROS_DOMAIN_ID."""
+goal -> result; --route sends a route file's points to Nav2's FollowWaypoints action (the node
+orders, drives, pauses and loops; it prints each waypoint as it is driven to and the missed ones).
+Use the node's ROS_DOMAIN_ID."""
 import argparse
 import statistics
 import time
@@ -33,14 +36,23 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--start", nargs=2, type=float, metavar=("X", "Y"),
                     help="publish this start on /initialpose first (leave it out when /odom or AMCL already tells the node where the robot is)")
-    ap.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"))
+    ap.add_argument("--goal", nargs=2, type=float, metavar=("X", "Y"))
+    ap.add_argument("--route", help="a route file (config/routes/*.yaml): drive its points with follow_waypoints")
+    ap.add_argument("--loops", type=int, default=0, help="with --route: passes after the first")
     ap.add_argument("--repeat", type=int, default=1, help="send the goal this many times and report the median latency")
     ap.add_argument("--service", action="store_true", help="call /patrol_planner/make_plan instead of publishing goals")
     ap.add_argument("--fresh", action="store_true", help="with --service: a new client for every call")
     ap.add_argument("--action", action="store_true", help="send Nav2's ComputePathToPose instead of publishing goals")
     args = ap.parse_args()
+    if (args.goal is None) == (args.route is None):
+        ap.error("give --goal or --route")
     rclpy.init()
     node = rclpy.create_node("send_goal")
+    if args.route:
+        follow_route(node, args)
+        node.destroy_node()
+        rclpy.shutdown()
+        return
     if args.action:
         call_action(node, args)
         node.destroy_node()
@@ -191,6 +203,44 @@ def call_action(node, args):
     if args.repeat > 1 and latencies:
         print(f"ComputePathToPose goal -> result over {len(latencies)} goals: median {1e3 * statistics.median(latencies):.1f} ms, "
               f"max {1e3 * max(latencies):.1f} ms")
+
+
+def follow_route(node, args):
+    import math
+
+    import yaml
+    from nav2_msgs.action import FollowWaypoints
+    from rclpy.action import ActionClient
+
+    route = yaml.safe_load(open(args.route))
+    client = ActionClient(node, FollowWaypoints, "follow_waypoints")
+    if not client.wait_for_server(timeout_sec=20):
+        raise SystemExit("no follow_waypoints action (same ROS_DOMAIN_ID?)")
+    goal = FollowWaypoints.Goal()
+    goal.number_of_loops = args.loops
+    names = [p["name"] for p in route["points"]]
+    for p in route["points"]:
+        pose = PoseStamped()
+        pose.header.frame_id = "map"
+        pose.pose.position.x, pose.pose.position.y = float(p["x"]), float(p["y"])
+        pose.pose.orientation.z, pose.pose.orientation.w = math.sin(p["yaw"] / 2), math.cos(p["yaw"] / 2)
+        goal.poses.append(pose)
+    started = time.monotonic()
+
+    def feedback(msg):
+        i = msg.feedback.current_waypoint
+        print(f"{time.monotonic() - started:7.1f} s  driving to {names[i]}")
+
+    accepted = client.send_goal_async(goal, feedback_callback=feedback)
+    rclpy.spin_until_future_complete(node, accepted, timeout_sec=30)
+    handle = accepted.result()
+    if handle is None or not handle.accepted:
+        raise SystemExit("the patrol was rejected (is the node active?)")
+    result = handle.get_result_async()
+    rclpy.spin_until_future_complete(node, result)
+    r = result.result().result
+    missed = [f"{names[m.index]} ({m.error_code})" for m in r.missed_waypoints]
+    print(f"patrol done in {time.monotonic() - started:.1f} s; missed: {', '.join(missed) or 'none'}")
 
 
 if __name__ == "__main__":

@@ -61,7 +61,7 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
             return None
         return published if "/tf" in published else None
 
-    published = ros.spin_until(bridge_publications, 10, "chassis_bridge's /tf on the ROS graph")
+    published = ros.spin_until(bridge_publications, 30, "chassis_bridge's /tf on the ROS graph")
     assert published.get("/tf") == ["tf2_msgs/msg/TFMessage"], published
     moving = [c for c in cmds if c.twist.linear.x > 0.05]
     assert moving, "no TwistStamped command moved the car"
