@@ -12,7 +12,7 @@ use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
-use ros2_client::Subscription;
+use ros2_client::{Gid, Subscription};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
@@ -23,15 +23,24 @@ use tokio::sync::watch;
 /// being followed, the new map is checked against the rest of it: the goal is planned again
 /// (through `slot`, as a new goal) only when the map blocks the path, and the path is kept
 /// otherwise (Nav2's replanning on an invalid path, navigation2 PR 2841).
+///
+/// `own` is the node's own `/map` writer (it latches the map it loads from `map_yaml`): DDS
+/// delivers that sample back to this subscription, and the map is already installed, so it is
+/// skipped rather than converted a second time (at 4000 x 4000 that is 16 M cells and a second
+/// of work for nothing).
 pub async fn receive_maps(
     s: Arc<Shared>,
     o: Outputs,
     sub: Subscription<OccupancyGrid>,
     slot: watch::Sender<GoalSlot>,
     source: &'static str,
+    own: Option<Gid>,
 ) {
     loop {
         match sub.async_take().await {
+            Ok((_, info)) if own.is_some_and(|g| g == info.publisher_gid()) => {
+                log::debug!("{source}: our own map_yaml sample, already installed");
+            }
             Ok((msg, _)) => {
                 match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
                     Ok(Ok(map)) => {

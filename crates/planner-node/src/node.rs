@@ -408,9 +408,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
 
     let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
     // The planning grid comes from the costmap topic when one is set, else from /map.
-    let (grid_sub, grid_source) = match costmap_sub {
-        Some(sub) => (sub, "the costmap topic"),
-        None => (map_sub, "/map"),
+    // Our own latched map_yaml sample comes back on /map; it is skipped there (already installed).
+    let own_map = (!params.map_yaml.is_empty()).then(|| map_pub.gid());
+    let (grid_sub, grid_source, own) = match costmap_sub {
+        Some(sub) => (sub, "the costmap topic", None),
+        None => (map_sub, "/map", own_map),
     };
     tasks.spawn(inputs::receive_maps(
         shared.clone(),
@@ -418,6 +420,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         grid_sub,
         goal_tx.clone(),
         grid_source,
+        own,
     ));
     tasks.spawn(inputs::receive_start_poses(
         shared.clone(),
