@@ -220,9 +220,28 @@ pub fn initial_pheromone(
         .collect()
 }
 
+impl ColonyPlanner {
+    /// The field of the heuristic: EAPF (no eq. 9 factor) or the patrol car paper's APF.
+    fn field_params(&self) -> ApfParams {
+        match self.variant {
+            ColonyVariant::EapfIaco => ApfParams {
+                goal_distance_factor: false,
+                ..self.apf.clone()
+            },
+            _ => self.apf.clone(),
+        }
+    }
+}
+
 impl Planner for ColonyPlanner {
     fn name(&self) -> PlannerName {
         self.variant.name()
+    }
+
+    /// A* (the `eapf_iaco` seed) plus the pheromone and its initial copy (8 + 8 B), the ants'
+    /// visit stamps (4 B) and the heuristic's row index (4 B) of every cell.
+    fn working_bytes_per_cell(&self) -> u64 {
+        crate::planner::ASTAR_BYTES_PER_CELL + 24
     }
 
     fn smooth_by_default(&self) -> bool {
@@ -244,8 +263,15 @@ struct Colony<'a> {
     planner: &'a ColonyPlanner,
     problem: Problem<'a>,
     info: MapInfo,
-    /// `eta^beta` per cell and move (eq. 14-16, or 12): the heuristic does not change.
-    eta_beta: Vec<f64>,
+    /// `eta^beta` per move (eq. 14-16, or 12) of each cell an ant has stood on, computed on its
+    /// first visit: `heuristic_slot[cell]` indexes `heuristic_rows` (`u32::MAX`: not yet). The
+    /// heuristic never changes, so computing it lazily gives the same numbers as a table of every
+    /// cell, which cost 64 B/cell (1 GB at 16 M cells) where ants touch a small share of a
+    /// large map; this costs 4 B/cell plus 64 B per visited cell.
+    heuristic_slot: Vec<u32>,
+    heuristic_rows: Vec<[f64; 8]>,
+    /// The field the heuristic follows (EAPF or APF; unused by `aco`).
+    field_params: ApfParams,
     /// The initial pheromone (eq. 17-18, or uniform), which eq. 19 restores a share of.
     tau0: Vec<f64>,
     tau: Vec<f64>,
@@ -273,7 +299,9 @@ impl<'a> Colony<'a> {
             planner,
             problem,
             info: *grid.info(),
-            eta_beta: Vec::new(),
+            heuristic_slot: vec![u32::MAX; grid.width() * grid.height()],
+            heuristic_rows: Vec::new(),
+            field_params: planner.field_params(),
             tau0: Vec::new(),
             tau: Vec::new(),
             floor: p.tau_min * p.initial_pheromone,
@@ -288,15 +316,38 @@ impl<'a> Colony<'a> {
         }
     }
 
-    /// The field of the heuristic: EAPF (no eq. 9 factor) or the patrol car paper's APF.
-    fn field_params(&self) -> ApfParams {
-        match self.planner.variant {
-            ColonyVariant::EapfIaco => ApfParams {
-                goal_distance_factor: false,
-                ..self.planner.apf.clone()
-            },
-            _ => self.planner.apf.clone(),
+    /// `eta^beta` for the eight moves out of `c` (eq. 14-16 for `eapf_iaco`, the APF force
+    /// heuristic for `aco_apf`, eq. 12's `1/d` for `aco`), from the table or computed now.
+    fn heuristic(&mut self, c: Cell) -> [f64; 8] {
+        let i = self.info.index(c);
+        if let Some(row) = self.heuristic_rows.get(self.heuristic_slot[i] as usize) {
+            return *row;
         }
+        let p = &self.planner.params;
+        let variant = self.planner.variant;
+        let goal_c = self.problem.goal.center();
+        let force = if variant == ColonyVariant::Aco {
+            Vector2::zeros()
+        } else {
+            PotentialField::new(self.problem.grid, &self.field_params, goal_c).force(c)
+        };
+        let mut row = [0.0; 8];
+        for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
+            let dir = Vector2::new(dx as f64, dy as f64);
+            let next = c.offset(dx, dy);
+            let eta = match variant {
+                ColonyVariant::Aco => 1.0 / dir.norm(),
+                ColonyVariant::AcoApf => eta_force(force, dir, p.delta) / dir.norm(),
+                ColonyVariant::EapfIaco => {
+                    let d_je = (next.center() - goal_c).norm().max(1e-9);
+                    (1.0 - p.phi) / p.phi * eta_force(force, dir, p.delta) / d_je
+                }
+            };
+            row[k] = eta.powf(p.beta);
+        }
+        self.heuristic_slot[i] = self.heuristic_rows.len() as u32;
+        self.heuristic_rows.push(row);
+        row
     }
 
     /// The best length so far in metres (the convergence value), infinite before any.
@@ -321,11 +372,12 @@ impl<'a> Colony<'a> {
                 return true;
             }
             self.candidates.clear();
+            let eta_beta = self.heuristic(cur);
             for (k, nb) in grid.moves(cur) {
                 if self.visited[info.index(nb)] != self.stamp {
                     // Eq. 13's weight: tau^alpha * eta^beta.
-                    let weight = self.tau[info.index(nb)].max(self.floor).powf(p.alpha)
-                        * self.eta_beta[info.index(cur) * 8 + k];
+                    let weight =
+                        self.tau[info.index(nb)].max(self.floor).powf(p.alpha) * eta_beta[k];
                     self.candidates.push((nb, weight));
                 }
             }
@@ -354,42 +406,15 @@ impl<'a> Colony<'a> {
 }
 
 impl Population for Colony<'_> {
-    /// The heuristic and the initial pheromone; for `eapf_iaco` the EAPF path as the first good
-    /// path (A*'s when the EAPF cannot reach the goal, the swarms' rule; the result says so).
+    /// The initial pheromone (the heuristic is computed as the ants reach each cell); for
+    /// `eapf_iaco` the EAPF path as the first good path (A*'s when the EAPF cannot reach the
+    /// goal, the swarms' rule; the result says so).
     fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError> {
-        let (grid, info) = (self.problem.grid, self.info);
+        let grid = self.problem.grid;
         let p = &self.planner.params;
         let variant = self.planner.variant;
-        let field_params = self.field_params();
+        let field_params = self.field_params.clone();
         let goal_c = self.problem.goal.center();
-        let field = PotentialField::new(grid, &field_params, goal_c);
-        self.eta_beta = vec![0f64; info.cell_count() * 8];
-        for y in 0..grid.height() as i32 {
-            for x in 0..grid.width() as i32 {
-                let c = Cell::new(x, y);
-                if !grid.is_free(c) {
-                    continue;
-                }
-                let force = if variant == ColonyVariant::Aco {
-                    Vector2::zeros()
-                } else {
-                    field.force(c)
-                };
-                for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
-                    let dir = Vector2::new(dx as f64, dy as f64);
-                    let next = c.offset(dx, dy);
-                    let eta = match variant {
-                        ColonyVariant::Aco => 1.0 / dir.norm(),
-                        ColonyVariant::AcoApf => eta_force(force, dir, p.delta) / dir.norm(),
-                        ColonyVariant::EapfIaco => {
-                            let d_je = (next.center() - goal_c).norm().max(1e-9);
-                            (1.0 - p.phi) / p.phi * eta_force(force, dir, p.delta) / d_je
-                        }
-                    };
-                    self.eta_beta[info.index(c) * 8 + k] = eta.powf(p.beta);
-                }
-            }
-        }
         self.tau0 = initial_pheromone(grid, variant, self.problem.start.center(), goal_c, p);
         self.tau = self.tau0.clone();
         if variant == ColonyVariant::EapfIaco {
