@@ -8,9 +8,7 @@ use planner_core::driver::Termination;
 use planner_core::geometry::Point2;
 use planner_core::grid::inflation::PlanningGrid;
 use planner_core::grid::GridMap;
-use planner_core::planner::{
-    Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query, SolveOptions,
-};
+use planner_core::planner::{Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use serde::Serialize;
@@ -73,10 +71,7 @@ impl Workspace {
                 .map(|_| Interrupt::Deadline)
         };
         let mut ctx = PlanContext::new(&mut rng, &interrupt);
-        let options = SolveOptions {
-            smoothing: self.config.smoothing,
-            start_tolerance: self.config.start_tolerance,
-        };
+        let options = self.config.solve_options();
         let result = planner_core::solve(p.as_ref(), &self.grid, query, options, &mut ctx);
         Ok((result, t0.elapsed()))
     }

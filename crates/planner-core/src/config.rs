@@ -32,6 +32,10 @@ pub struct PlannerConfig {
     /// Force the delete operation on (`true`) or off (`false`) for every planner; unset follows
     /// each planner's default.
     pub smoothing: Option<bool>,
+    /// What one plan may allocate for its per-cell working tables (MiB): a plan whose planner
+    /// would need more on this map is refused before allocating anything
+    /// ([`crate::planner::PlanError::TooLarge`]). Default 2048.
+    pub max_plan_memory_mb: f64,
     /// Time budget of one plan (s); anytime planners return their best path so far when it runs
     /// out, the others fail with a timeout. 0 means no limit. Default 5.
     pub max_planning_time: f64,
@@ -58,6 +62,9 @@ pub fn default_tolerance() -> f64 {
 pub fn default_max_planning_time() -> f64 {
     5.0
 }
+pub fn default_max_plan_memory_mb() -> f64 {
+    (crate::planner::DEFAULT_MAX_PLAN_BYTES >> 20) as f64
+}
 
 impl Default for PlannerConfig {
     fn default() -> Self {
@@ -67,6 +74,7 @@ impl Default for PlannerConfig {
             tolerance: default_tolerance(),
             start_tolerance: default_tolerance(),
             smoothing: None,
+            max_plan_memory_mb: default_max_plan_memory_mb(),
             max_planning_time: default_max_planning_time(),
             costmap: InflationConfig::default(),
             search: SearchParams::default(),
@@ -88,6 +96,11 @@ impl PlannerConfig {
                 ("max_planning_time", self.max_planning_time),
             ],
         )?;
+        // At least 1 MiB, at most 1 TiB: the bytes must fit a u64 and mean something.
+        check(
+            Range::Within(1.0, (1u64 << 20) as f64),
+            &[("max_plan_memory_mb", self.max_plan_memory_mb)],
+        )?;
         self.costmap.validate()?;
         self.search.validate()?;
         self.apf.validate()?;
@@ -102,6 +115,15 @@ impl PlannerConfig {
         ApfParams {
             chassis_radius: Some(self.apf.chassis_radius.unwrap_or(self.costmap.robot_radius)),
             ..self.apf.clone()
+        }
+    }
+
+    /// The options of [`crate::solve`] this configuration sets.
+    pub fn solve_options(&self) -> crate::planner::SolveOptions {
+        crate::planner::SolveOptions {
+            smoothing: self.smoothing,
+            start_tolerance: self.start_tolerance,
+            max_plan_bytes: (self.max_plan_memory_mb * (1u64 << 20) as f64) as u64,
         }
     }
 }

@@ -32,6 +32,8 @@ pub enum Range {
     OpenUnit,
     /// Finite and greater than the bound.
     Above(f64),
+    /// Within `lo..=hi`.
+    Within(f64, f64),
 }
 
 impl Range {
@@ -42,6 +44,7 @@ impl Range {
             Range::Share => (0.0..=1.0).contains(&v),
             Range::OpenUnit => v > 0.0 && v < 1.0,
             Range::Above(b) => v.is_finite() && v > b,
+            Range::Within(lo, hi) => (lo..=hi).contains(&v),
         }
     }
 
@@ -52,6 +55,7 @@ impl Range {
             Range::Share => "within 0..=1".into(),
             Range::OpenUnit => "strictly between 0 and 1".into(),
             Range::Above(b) => format!("a finite number above {b}"),
+            Range::Within(lo, hi) => format!("within {lo}..={hi}"),
         }
     }
 }
@@ -88,6 +92,9 @@ mod tests {
         assert!(check(Range::NonNegative, &[("n", f64::NAN)]).is_err());
         assert!(check(Range::OpenUnit, &[("u", 1.0)]).is_err());
         assert!(check(Range::Above(1.0), &[("g", 1.0)]).is_err());
+        assert!(check(Range::Within(1.0, 2.0), &[("w", f64::NAN)]).is_err());
+        assert!(check(Range::Within(1.0, 2.0), &[("w", 2.5)]).is_err());
+        assert!(check(Range::Within(1.0, 2.0), &[("w", 2.0)]).is_ok());
         assert_eq!(check_counts(2, &[("k", 1)]).unwrap_err().name, "k");
     }
 }

@@ -164,7 +164,27 @@ pub enum PlanError {
     Cancelled,
     #[error("invalid request: {0}")]
     InvalidInput(String),
+    /// The planner's per-cell working tables on this map would exceed the plan's memory cap.
+    #[error("{planner} needs about {} MiB of working tables on this {cells}-cell map ({per_cell} B per cell), over the cap of {} MiB (max_plan_memory_mb)", .needed >> 20, .cap >> 20)]
+    TooLarge {
+        planner: PlannerName,
+        cells: u64,
+        per_cell: u64,
+        needed: u64,
+        cap: u64,
+    },
 }
+
+/// What one plan may allocate for its per-cell working tables unless configured otherwise
+/// (`max_plan_memory_mb`): 2 GiB, which every planner stays within on a 4000 x 4000 map (16 M
+/// cells; the largest, the ant colonies, need 56 B per cell there, 0.9 GB). The map itself (the
+/// grid, its clearance transform, the planning grid) is the node's and is not counted.
+pub const DEFAULT_MAX_PLAN_BYTES: u64 = 2 << 30;
+
+/// A*'s tables per cell (`search::astar`): g (8 B) and parent (4 B) of every cell of the
+/// padded grid and, at most about one open-list entry (16 B) per cell, rounded up to 32 B.
+/// Every planner but the bare potential field may run A* (as its seed or its fallback).
+pub const ASTAR_BYTES_PER_CELL: u64 = 32;
 
 /// The one trait every planner implements. Object safe: planners are chosen by name at run time.
 pub trait Planner: Send + Sync {
@@ -177,13 +197,20 @@ pub trait Planner: Send + Sync {
         false
     }
 
+    /// The bytes per map cell this planner's working tables take in one plan, at most (an
+    /// estimate of the tables it allocates per cell, never of the path): [`solve`] refuses a
+    /// plan over [`SolveOptions::max_plan_bytes`] before the planner allocates anything.
+    fn working_bytes_per_cell(&self) -> u64 {
+        ASTAR_BYTES_PER_CELL
+    }
+
     /// Plans on a validated problem. Pure: the result depends only on `self`, `problem` and the
     /// RNG's state (and on when `ctx.interrupt` fires).
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError>;
 }
 
 /// Options of [`solve`] that are not the planner's own.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveOptions {
     /// Apply the delete operation (genetic algorithm paper section 4.5): `None` follows
     /// [`Planner::smooth_by_default`].
@@ -192,6 +219,36 @@ pub struct SolveOptions {
     /// of failing with START_OCCUPIED (a robot pushed against a wall, or a map update that
     /// grew an obstacle under it: navigation2 issues 5685, 6120). 0: never.
     pub start_tolerance: f64,
+    /// The cap on one plan's per-cell working tables (bytes); see [`DEFAULT_MAX_PLAN_BYTES`].
+    pub max_plan_bytes: u64,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        Self {
+            smoothing: None,
+            start_tolerance: 0.0,
+            max_plan_bytes: DEFAULT_MAX_PLAN_BYTES,
+        }
+    }
+}
+
+/// Refuses a plan whose working tables on `grid` would pass `cap` bytes.
+fn check_memory(planner: &dyn Planner, grid: &PlanningGrid, cap: u64) -> Result<(), PlanError> {
+    // The padded grid A* indexes: (w + 2) x (h + 2).
+    let cells = (grid.width() as u64 + 2) * (grid.height() as u64 + 2);
+    let per_cell = planner.working_bytes_per_cell();
+    let needed = cells.saturating_mul(per_cell);
+    if needed > cap {
+        return Err(PlanError::TooLarge {
+            planner: planner.name(),
+            cells,
+            per_cell,
+            needed,
+            cap,
+        });
+    }
+    Ok(())
 }
 
 /// Validates a request, runs the planner, post-processes, verifies and measures its path.
@@ -203,6 +260,7 @@ pub fn solve(
     ctx: &mut PlanContext<'_>,
 ) -> Result<Plan, PlanError> {
     let problem = validate_with(grid, query, options.start_tolerance)?;
+    check_memory(planner, grid, options.max_plan_bytes)?;
     let mut raw = if problem.start == problem.goal {
         // The goal lies in the start's own cell: the straight segment inside one free cell is
         // the path (Nav2's planners answer such a request with a one- or two-pose path). No

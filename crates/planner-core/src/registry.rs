@@ -289,4 +289,55 @@ mod tests {
         );
         assert!(plan.metrics.collision_free);
     }
+
+    /// A plan whose planner's working tables would pass the memory cap is refused before it
+    /// runs, naming the planner, the need and the cap; within the cap the same query plans.
+    #[test]
+    fn a_plan_over_the_memory_cap_is_refused_before_it_runs() {
+        use crate::geometry::Point2;
+        use crate::planner::{solve, PlanContext, PlanError, Query, SolveOptions};
+        use crate::test_support::{grid_from_rows, rng};
+        let grid = grid_from_rows(&["........", "........", "........"]);
+        let padded = 10 * 5;
+        let q = Query {
+            start: Point2::new(0.5, 0.5),
+            goal: Point2::new(7.5, 2.5),
+            tolerance: 0.0,
+        };
+        for name in PlannerName::ALL {
+            let planner = build(&PlannerConfig {
+                planner: name,
+                ..PlannerConfig::default()
+            })
+            .unwrap();
+            let per_cell = planner.working_bytes_per_cell();
+            assert!(per_cell >= crate::planner::ASTAR_BYTES_PER_CELL, "{name}");
+            let run = |cap| {
+                let mut r = rng(1);
+                solve(
+                    planner.as_ref(),
+                    &grid,
+                    &q,
+                    SolveOptions {
+                        max_plan_bytes: cap,
+                        ..SolveOptions::default()
+                    },
+                    &mut PlanContext::never_interrupted(&mut r),
+                )
+            };
+            let need = padded * per_cell;
+            match run(need - 1) {
+                Err(PlanError::TooLarge {
+                    planner,
+                    needed,
+                    cap,
+                    ..
+                }) => {
+                    assert_eq!((planner, needed, cap), (name, need, need - 1));
+                }
+                other => panic!("{name}: {:?}", other.map(|p| p.waypoints)),
+            }
+            assert!(run(need).is_ok(), "{name}");
+        }
+    }
 }

@@ -13,7 +13,7 @@ use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::GridMap;
 use planner_core::grid::PlanningGrid;
-use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query, SolveOptions};
+use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use ros2_client::Server;
@@ -87,10 +87,7 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
         planner.as_ref(),
         &map.grid,
         &query,
-        SolveOptions {
-            smoothing: config.smoothing,
-            start_tolerance: config.start_tolerance,
-        },
+        config.solve_options(),
         &mut ctx,
     );
     let elapsed_ms = t0.elapsed().as_secs_f64() * 1e3;

@@ -32,6 +32,8 @@ pub enum ResultCode {
     Cancelled = 293,
     /// The node is not active (lifecycle): it plans only once activated.
     NotActive = 294,
+    /// The plan would need more working memory on this map than `max_plan_memory_mb` allows.
+    TooLarge = 295,
 }
 
 impl ResultCode {
@@ -58,6 +60,7 @@ impl ResultCode {
             ResultCode::NoStartPose => "NO_START_POSE",
             ResultCode::Cancelled => "CANCELLED",
             ResultCode::NotActive => "NOT_ACTIVE",
+            ResultCode::TooLarge => "TOO_LARGE",
         }
     }
 }
@@ -95,6 +98,7 @@ impl From<PlanError> for Failure {
             PlanError::TimedOut => ResultCode::Timeout,
             PlanError::Cancelled => ResultCode::Cancelled,
             PlanError::InvalidInput(_) => ResultCode::InvalidInput,
+            PlanError::TooLarge { .. } => ResultCode::TooLarge,
         };
         Failure::new(code, e.to_string())
     }
@@ -146,6 +150,16 @@ mod tests {
             (
                 PlanError::InvalidInput("x".into()),
                 ResultCode::InvalidInput,
+            ),
+            (
+                PlanError::TooLarge {
+                    planner: PlannerName::Aco,
+                    cells: 1 << 30,
+                    per_cell: 56,
+                    needed: 56 << 30,
+                    cap: 2 << 30,
+                },
+                ResultCode::TooLarge,
             ),
         ];
         for (error, code) in cases {

@@ -328,6 +328,11 @@ fn connect(
 }
 
 impl Planner for GaPlanner {
+    /// A* (the paths between random points) plus the list of free cells (8 B each).
+    fn working_bytes_per_cell(&self) -> u64 {
+        crate::planner::ASTAR_BYTES_PER_CELL + 8
+    }
+
     fn name(&self) -> PlannerName {
         self.variant.name()
     }

@@ -38,6 +38,12 @@ use std::collections::BinaryHeap;
 pub struct AnyAngle;
 
 impl Planner for AnyAngle {
+    /// A* (the bound) plus, per candidate corner (at most one per cell): its point (16 B), g
+    /// (8 B), parent (8 B) and closed flag.
+    fn working_bytes_per_cell(&self) -> u64 {
+        crate::planner::ASTAR_BYTES_PER_CELL + 40
+    }
+
     fn name(&self) -> crate::registry::PlannerName {
         crate::registry::PlannerName::AnyAngle
     }
