@@ -24,8 +24,13 @@ LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, relia
 
 def domain_id(offset=0):
     """One domain per test run (0..232 are valid; stay clear of 0, the default); a test module
-    that starts binaries of its own uses `offset` to keep them apart from the session node."""
-    return 100 + (os.getpid() + offset) % 100
+    that starts binaries of its own uses `offset` to keep them apart from the session node.
+    TEST_DOMAIN_BASE and TEST_DOMAIN_SPAN (default 100 and 100: domains 100-199) give a pytest
+    run that goes beside another one a range of its own (scripts/test-all runs test_patrol.py
+    on 200-229)."""
+    base = int(os.environ.get("TEST_DOMAIN_BASE", "100"))
+    span = int(os.environ.get("TEST_DOMAIN_SPAN", "100"))
+    return base + (os.getpid() + offset) % span
 
 
 class Ros:
