@@ -1,11 +1,19 @@
 //! `patrol-plan bench`: every planner, R seeds, every scenario; one row per map x scenario x
 //! planner. Lengths are also reported as ratios to the any-angle reference and times as ratios to
 //! A*'s median on the same query in the same run, so figures from different machines compare.
+//!
+//! The queries come from scenario files, or (`--map M --random N --random-seed S`) are drawn on
+//! any map the way Nav2's planner benchmark draws them (`planner_core::grid::sampling`); a pair
+//! with no path is kept and marked (`astar_found_path: false`), and a summary per map and
+//! planner counts how each planner answered the solvable and the unsolvable ones.
 
 use crate::run::{load_config, Workspace};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use planner_core::grid::sampling::{random_queries, QuerySampling};
+use planner_core::planner::PlannerRng;
 use planner_core::PlannerName;
+use rand::SeedableRng;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -14,8 +22,19 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 pub struct BenchArgs {
     /// `*.scen.yaml` files (e.g. ../shared/maps/bench/datacenter_100.scen.yaml).
-    #[arg(long, num_args = 1.., required = true)]
+    #[arg(long, num_args = 1.., required_unless_present = "random")]
     pub scenarios: Vec<PathBuf>,
+    /// Draw this many start/goal pairs on each `--map` instead of reading scenario files: free
+    /// cells with a cost below 210, 5 % of the map away from its border, more than 3 m apart
+    /// (Nav2's planner benchmark rules).
+    #[arg(long, requires = "map")]
+    pub random: Option<usize>,
+    /// The seed of those draws.
+    #[arg(long, default_value_t = 33, requires = "random")]
+    pub random_seed: u64,
+    /// Maps (map_server YAML or Moving AI `.map`) for `--random`.
+    #[arg(long, num_args = 1.., requires = "random")]
+    pub map: Vec<PathBuf>,
     /// Comma-separated planner names (`patrol-plan planners` lists them).
     #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
     pub planners: Vec<PlannerName>,
@@ -64,6 +83,14 @@ pub struct Row {
     /// Mean iteration at which the best value last improved (population methods).
     pub best_iteration_mean: Option<f64>,
     pub reference_length_m: Option<f64>,
+    /// Whether A* (seed 0) found a path: where it did not, every planner should answer
+    /// NO_VALID_PATH.
+    pub astar_found_path: bool,
+    /// Runs whose chosen path differs from the planner's seed path (population planners that
+    /// report it).
+    pub improved_on_seed: Option<u64>,
+    /// How the successful runs ended, e.g. `max_iterations x3, converged x2`.
+    pub terminations: String,
     /// The first failure's reason, when a run failed.
     pub failure: Option<String>,
 }
@@ -89,24 +116,63 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-pub fn run(args: &BenchArgs) -> Result<()> {
+/// One query of the bench: its name, start and goal (map metres).
+struct Job {
+    name: String,
+    start: [f64; 2],
+    goal: [f64; 2],
+}
+
+fn stem(path: &std::path::Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default()
+}
+
+/// The maps and their queries: from scenario files, or drawn at random on `--map`s.
+fn jobs(args: &BenchArgs) -> Result<Vec<(String, Workspace, Vec<Job>)>> {
     let config = load_config(args.config.as_deref())?;
     let mut jobs = Vec::new();
+    if let Some(n) = args.random {
+        for map_path in &args.map {
+            let ws = Workspace::load(map_path, config.clone())?;
+            let mut rng = PlannerRng::seed_from_u64(args.random_seed);
+            let pairs = random_queries(&ws.grid, n, &mut rng, &QuerySampling::default())
+                .with_context(|| format!("drawing {n} queries on {}", map_path.display()))?;
+            let queries = pairs
+                .into_iter()
+                .enumerate()
+                .map(|(k, (a, b))| Job {
+                    name: format!("random_{k}"),
+                    start: [a.x, a.y],
+                    goal: [b.x, b.y],
+                })
+                .collect();
+            jobs.push((stem(map_path), ws, queries));
+        }
+        return Ok(jobs);
+    }
     for path in &args.scenarios {
         let (file, map_path) = planner_io::load_scenario_file(path)?;
         let ws = Workspace::load(&map_path, config.clone())
             .with_context(|| format!("map of {}", path.display()))?;
-        let map_name = map_path
-            .file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_default();
         let scenarios: Vec<_> = file
             .scenarios
             .into_iter()
             .filter(|s| args.only.is_empty() || args.only.contains(&s.name))
+            .map(|s| Job {
+                name: s.name,
+                start: s.start,
+                goal: s.goal,
+            })
             .collect();
-        jobs.push((map_name, ws, scenarios));
+        jobs.push((stem(&map_path), ws, scenarios));
     }
+    Ok(jobs)
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let jobs = jobs(args)?;
     let total: u64 = jobs
         .iter()
         .map(|(_, _, s)| s.len() as u64 * (args.planners.len() as u64 + 1) * args.runs)
@@ -120,6 +186,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         for sc in scenarios {
             let query = ws.query(sc.start, sc.goal);
             bar.set_message(format!("{map_name}/{} reference", sc.name));
+            let astar_found_path = ws.run(PlannerName::Astar, &query, 0)?.0.is_ok();
             let reference = ws
                 .run(PlannerName::AnyAngle, &query, 0)?
                 .0
@@ -139,6 +206,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     (vec![], vec![], vec![], vec![], vec![], vec![]);
                 let (mut mean_clear, mut cost) = (vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
+                let mut improved: Option<u64> = None;
+                let mut ends: std::collections::BTreeMap<String, u64> = Default::default();
                 for seed in 0..args.runs {
                     let (result, t) = ws.run(*planner, &query, seed)?;
                     times.push(t.as_secs_f64() * 1e3);
@@ -156,6 +225,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             if let Some(b) = plan.stats.best_iteration {
                                 best_it.push(b as f64);
                             }
+                            if let Some(v) = plan.stats.counters.get("improved_on_seed") {
+                                *improved.get_or_insert(0) += u64::from(*v > 0.0);
+                            }
+                            let end = plan
+                                .stats
+                                .termination
+                                .map_or("completed".to_string(), |t| t.as_str().to_string());
+                            *ends.entry(end).or_default() += 1;
                         }
                         Err(e) => {
                             failure.get_or_insert_with(|| e.to_string());
@@ -185,6 +262,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     iterations_mean: mean(&iters),
                     best_iteration_mean: mean(&best_it),
                     reference_length_m: reference,
+                    astar_found_path,
+                    improved_on_seed: improved,
+                    terminations: ends
+                        .iter()
+                        .map(|(k, n)| format!("{k} x{n}"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
                     failure,
                 });
             }
@@ -203,6 +287,70 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// One line per map and planner: how it answered the queries A* solved and those it did not,
+/// with the means over the solved ones.
+fn summary(s: &mut String, rows: &[Row]) {
+    let mut keys: Vec<(&str, PlannerName)> = Vec::new();
+    for r in rows {
+        if !keys.contains(&(r.map.as_str(), r.planner)) {
+            keys.push((r.map.as_str(), r.planner));
+        }
+    }
+    let _ = writeln!(
+        s,
+        "Summary per map and planner (queries where A* found a path: runs that succeeded, with a collision-free path; where it found none: runs that answered NO_VALID_PATH; means over the solvable queries' rows):\n"
+    );
+    let _ = writeln!(
+        s,
+        "| map | planner | solvable: ok | collision-free | unsolvable: NO_VALID_PATH | length vs any-angle | mean clearance (m) | median time vs A* | improved on seed |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    for (map, planner) in keys {
+        let mine: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.map == map && r.planner == planner)
+            .collect();
+        let (solvable, unsolvable): (Vec<&Row>, Vec<&Row>) =
+            mine.iter().partition(|r| r.astar_found_path);
+        let runs = |v: &[&Row]| v.iter().map(|r| r.runs).sum::<u64>();
+        let ok: u64 = solvable.iter().map(|r| r.successes).sum();
+        let free: u64 = solvable.iter().map(|r| r.collision_free).sum();
+        let refused: u64 = unsolvable
+            .iter()
+            .map(|r| {
+                let no_path = r
+                    .failure
+                    .as_deref()
+                    .is_some_and(|f| f.starts_with("no valid path"));
+                if r.successes == 0 && no_path {
+                    r.runs
+                } else {
+                    0
+                }
+            })
+            .sum();
+        let avg = |get: &dyn Fn(&Row) -> Option<f64>| {
+            mean(&solvable.iter().filter_map(|r| get(r)).collect::<Vec<_>>())
+        };
+        let ratios: Vec<f64> = solvable.iter().filter_map(|r| r.time_vs_astar).collect();
+        let improved: Option<(u64, u64)> = solvable
+            .iter()
+            .filter_map(|r| r.improved_on_seed.map(|n| (n, r.successes)))
+            .reduce(|a, b| (a.0 + b.0, a.1 + b.1));
+        let _ = writeln!(
+            s,
+            "| {map} | {planner} | {ok}/{} | {free} | {refused}/{} | {} | {} | {} | {} |",
+            runs(&solvable),
+            runs(&unsolvable),
+            f(avg(&|r| r.length_ratio_mean), 3),
+            f(avg(&|r| r.mean_clearance_m_mean), 2),
+            f((!ratios.is_empty()).then(|| median(ratios.clone())), 2),
+            improved.map_or("–".into(), |(n, d)| format!("{n}/{d}")),
+        );
+    }
+    let _ = writeln!(s);
+}
+
 fn f(v: Option<f64>, digits: usize) -> String {
     v.map_or("–".into(), |x| format!("{x:.digits$}"))
 }
@@ -210,15 +358,24 @@ fn f(v: Option<f64>, digits: usize) -> String {
 /// The same table for people.
 pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
     let mut s = String::new();
-    let files: Vec<String> = args
-        .scenarios
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
+    let show = |paths: &[PathBuf]| {
+        paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let source = match args.random {
+        Some(n) => format!(
+            "--map {} --random {n} --random-seed {}",
+            show(&args.map),
+            args.random_seed
+        ),
+        None => format!("--scenarios {}", show(&args.scenarios)),
+    };
     let _ = writeln!(
         s,
-        "Produced by `patrol-plan bench --scenarios {} --planners {} --runs {}`{}.\n",
-        files.join(" "),
+        "Produced by `patrol-plan bench {source} --planners {} --runs {}`{}{}.\n",
         args.planners
             .iter()
             .map(|p| p.as_str())
@@ -229,8 +386,12 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
             String::new()
         } else {
             format!(" --only {}", args.only.join(","))
-        }
+        },
+        args.config
+            .as_ref()
+            .map_or(String::new(), |c| format!(" --config {}", c.display()))
     );
+    summary(&mut s, rows);
     let _ = writeln!(
         s,
         "Lengths in m (ratio: mean length / any-angle reference), turning in rad, times in ms \
@@ -238,19 +399,20 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
     );
     let _ = writeln!(
         s,
-        "| map | scenario | planner | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | path cost | time median | vs A* | iterations | best at |"
+        "| map | scenario | planner | A* path | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | path cost | time median | vs A* | iterations | best at | improved on seed | termination |"
     );
     let _ = writeln!(
         s,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} |",
             r.map,
             r.scenario,
             r.planner,
+            if r.astar_found_path { "yes" } else { "no" },
             r.successes,
             r.runs,
             r.collision_free,
@@ -267,6 +429,9 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
             f(r.time_vs_astar, 2),
             f(r.iterations_mean, 0),
             f(r.best_iteration_mean, 1),
+            r.improved_on_seed
+                .map_or("–".into(), |n| format!("{n}/{}", r.successes)),
+            r.terminations,
         );
     }
     let failures: Vec<_> = rows
