@@ -117,6 +117,10 @@ pub struct PlanningGrid {
     costs: CostModel,
     /// Costs given cell by cell (a costmap received as is), instead of the model's.
     given_costs: Option<Vec<u8>>,
+    /// The model's cost of every cell, computed on the first [`PlanningGrid::cost`] call (an
+    /// exponential and a square root per cell: the swarms' safety objective asks for thousands
+    /// of cells per candidate). 1 B per cell; never built when nobody weighs costs.
+    model_costs: std::sync::OnceLock<Vec<u8>>,
     /// Free cells, with a one-cell blocked border (row stride `width + 2`): lets the graph
     /// searches step to any 8-neighbour without a bounds check.
     padded_free: Vec<bool>,
@@ -171,6 +175,7 @@ impl PlanningGrid {
     /// The same grid with another cost model.
     pub fn with_costs(mut self, costs: CostModel) -> Self {
         self.costs = costs;
+        self.model_costs = std::sync::OnceLock::new();
         self
     }
 
@@ -210,6 +215,7 @@ impl PlanningGrid {
                 cost_scaling_factor: default_cost_scaling_factor(),
             },
             given_costs: None,
+            model_costs: std::sync::OnceLock::new(),
             padded_free,
         }
     }
@@ -256,9 +262,19 @@ impl PlanningGrid {
         if !self.info.contains(c) {
             return LETHAL;
         }
-        if let Some(given) = &self.given_costs {
-            return given[self.info.index(c)];
-        }
+        let table = match &self.given_costs {
+            Some(given) => given,
+            None => self.model_costs.get_or_init(|| {
+                (0..self.info.cell_count())
+                    .map(|i| self.model_cost(self.info.cell_at(i)))
+                    .collect()
+            }),
+        };
+        table[self.info.index(c)]
+    }
+
+    /// [`PlanningGrid::cost`] of a cell inside the map by the cost model.
+    fn model_cost(&self, c: Cell) -> u8 {
         let d = self.clearance(c);
         if d <= 0.0 {
             LETHAL
