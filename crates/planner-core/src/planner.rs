@@ -85,6 +85,9 @@ pub struct ParetoMember {
     pub f1_length_m: f64,
     /// Total turning angle (rad).
     pub f2_turning_rad: f64,
+    /// Safety cost: the costmap cost integrated along the path (m at cost 252); 0 when the
+    /// planner's safety weight is 0.
+    pub f3_safety: f64,
     pub waypoints: Vec<Point2>,
 }
 

@@ -73,6 +73,11 @@ pub struct ColonyParams {
     pub tau_min: f64,
     /// An ant gives up after this many steps, as a multiple of (width + height). Default 4.
     pub step_budget_factor: f64,
+    /// Beyond the papers (issue 13): the heuristic of a move into a cell of costmap cost `c`
+    /// (0..252) is divided by `1 + cost_weight * c / 252` (before eq. 13's power beta), so ants
+    /// prefer the middle of an aisle to its walls. Default 0.3; 0 (config/paper.yaml) is the
+    /// papers' heuristic exactly.
+    pub cost_weight: f64,
 }
 
 impl Default for ColonyParams {
@@ -91,6 +96,7 @@ impl Default for ColonyParams {
             band: 10.0,
             tau_min: 1e-4,
             step_budget_factor: 4.0,
+            cost_weight: 0.3,
         }
     }
 }
@@ -125,7 +131,11 @@ impl ColonyParams {
         )?;
         check(
             Range::NonNegative,
-            &[("colony.alpha", self.alpha), ("colony.beta", self.beta)],
+            &[
+                ("colony.alpha", self.alpha),
+                ("colony.beta", self.beta),
+                ("colony.cost_weight", self.cost_weight),
+            ],
         )
     }
 }
@@ -335,7 +345,7 @@ impl<'a> Colony<'a> {
         for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
             let dir = Vector2::new(dx as f64, dy as f64);
             let next = c.offset(dx, dy);
-            let eta = match variant {
+            let mut eta = match variant {
                 ColonyVariant::Aco => 1.0 / dir.norm(),
                 ColonyVariant::AcoApf => eta_force(force, dir, p.delta) / dir.norm(),
                 ColonyVariant::EapfIaco => {
@@ -343,6 +353,9 @@ impl<'a> Colony<'a> {
                     (1.0 - p.phi) / p.phi * eta_force(force, dir, p.delta) / d_je
                 }
             };
+            if p.cost_weight > 0.0 {
+                eta /= 1.0 + p.cost_weight * self.problem.grid.cost(next) as f64 / 252.0;
+            }
             row[k] = eta.powf(p.beta);
         }
         self.heuristic_slot[i] = self.heuristic_rows.len() as u32;

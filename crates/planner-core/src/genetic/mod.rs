@@ -20,6 +20,10 @@
 //!   energy, per heading change, the quadrant of the new heading in the frame of the old one:
 //!   first (ahead, a 45 deg turn) +1, second or fourth (a 90 deg turn) +3, third (behind: 135 or
 //!   180 deg) +10, no turn 0. Weights 1.0 / 0.5 / 0.5 (`docs/papers.md`: lost from the text).
+//!   Beyond the paper (issue 13): `w_c * cost`, the graded costmap cost along the path (metres
+//!   at cost 252, [`PlanningGrid::cost`]), so that among equally short paths the one through the
+//!   middle of the aisle is fitter; the paper's safety term only sees the cells next to an
+//!   obstacle. `weight_cost: 0` (config/paper.yaml) is the paper's fitness exactly.
 //! - Layered selection (4.3.1): sorted by fitness, three layers of `N / 3`; the first copied
 //!   twice, the second once, the rest filled from the best of the third. The plain GA uses
 //!   roulette selection on `1 / fitness`.
@@ -62,6 +66,9 @@ pub struct GaParams {
     pub weight_length: f64,
     pub weight_safety: f64,
     pub weight_energy: f64,
+    /// Fitness weight of the graded costmap cost along the path (per metre at cost 252).
+    /// Default 1; 0 is the paper's fitness.
+    pub weight_cost: f64,
     /// Attempts per wanted individual before the initial population is accepted as it is.
     /// Default 10.
     pub init_attempts: usize,
@@ -81,6 +88,7 @@ impl Default for GaParams {
             weight_length: 1.0,
             weight_safety: 0.5,
             weight_energy: 0.5,
+            weight_cost: 1.0,
             init_attempts: 10,
             insertion_budget_factor: 4.0,
         }
@@ -111,6 +119,7 @@ impl GaParams {
                 ("genetic.weight_length", self.weight_length),
                 ("genetic.weight_safety", self.weight_safety),
                 ("genetic.weight_energy", self.weight_energy),
+                ("genetic.weight_cost", self.weight_cost),
                 (
                     "genetic.insertion_budget_factor",
                     self.insertion_budget_factor,
@@ -148,6 +157,9 @@ pub struct FitnessTerms {
     pub length_m: f64,
     pub safety: f64,
     pub energy: f64,
+    /// The costmap cost along the path: `sum cost(c) / 252 * step` (m), over the steps into
+    /// each cell; computed only when it is weighted (else 0).
+    pub cost_m: f64,
 }
 
 /// A chromosome is valid when it runs from `start` to `goal` through free cells, each step to a
@@ -185,8 +197,8 @@ pub fn turn_penalty(from: (i32, i32), to: (i32, i32)) -> f64 {
     }
 }
 
-/// The fitness terms of a cell path (4.2).
-pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell]) -> FitnessTerms {
+/// The fitness terms of a cell path (4.2), with the cost term when `with_cost`.
+pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell], with_cost: bool) -> FitnessTerms {
     let res = grid.resolution();
     let length_m = crate::search::astar::cell_path_length(path) * res;
     let safety = path
@@ -203,18 +215,36 @@ pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell]) -> FitnessTerms {
         .map(|w| (w[1].x - w[0].x, w[1].y - w[0].y))
         .collect();
     let energy = dirs.windows(2).map(|d| turn_penalty(d[0], d[1])).sum();
+    let cost_m = if with_cost {
+        path.windows(2)
+            .map(|w| {
+                let step = ((w[1].x - w[0].x) as f64).hypot((w[1].y - w[0].y) as f64);
+                step * grid.cost(w[1]) as f64 / 252.0
+            })
+            .sum::<f64>()
+            * res
+    } else {
+        0.0
+    };
     FitnessTerms {
         length_m,
         safety,
         energy,
+        cost_m,
     }
 }
 
 impl GaParams {
     fn fitness(&self, t: &FitnessTerms) -> f64 {
-        self.weight_length * t.length_m
+        let paper = self.weight_length * t.length_m
             + self.weight_safety * t.safety
-            + self.weight_energy * t.energy
+            + self.weight_energy * t.energy;
+        // Left out at weight 0, so the paper's fitness is computed exactly as before.
+        if self.weight_cost > 0.0 {
+            paper + self.weight_cost * t.cost_m
+        } else {
+            paper
+        }
     }
 }
 
@@ -381,9 +411,11 @@ struct Generations<'a> {
 
 impl Generations<'_> {
     fn score(&self, path: &[Cell]) -> f64 {
-        self.planner
-            .params
-            .fitness(&fitness_terms(self.problem.grid, path))
+        self.planner.params.fitness(&fitness_terms(
+            self.problem.grid,
+            path,
+            self.planner.params.weight_cost > 0.0,
+        ))
     }
 }
 
@@ -488,7 +520,11 @@ impl Population for Generations<'_> {
     }
 
     fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
-        let terms = fitness_terms(self.problem.grid, &self.best.1);
+        let terms = fitness_terms(
+            self.problem.grid,
+            &self.best.1,
+            self.planner.params.weight_cost > 0.0,
+        );
         if self.failed_mutations > 0 {
             stats
                 .counters
@@ -500,6 +536,9 @@ impl Population for Generations<'_> {
             .insert("fitness_length_m".into(), terms.length_m);
         stats.counters.insert("fitness_safety".into(), terms.safety);
         stats.counters.insert("fitness_energy".into(), terms.energy);
+        if self.planner.params.weight_cost > 0.0 {
+            stats.counters.insert("fitness_cost_m".into(), terms.cost_m);
+        }
         Ok(RawPlan {
             waypoints: self.best.1.iter().map(|c| c.center()).collect(),
             stats,
@@ -630,7 +669,7 @@ mod tests {
         // next to it: 3 nodes x 5. (The path keeps off the map's edge, which counts as blocked.)
         let grid = grid_from_rows(&[".......", ".......", "...#...", ".......", "......."]);
         let path: Vec<Cell> = (1..6).map(|x| Cell::new(x, 1)).collect();
-        let t = fitness_terms(&grid, &path);
+        let t = fitness_terms(&grid, &path, false);
         assert_eq!(t.safety, 15.0);
         assert_eq!(t.energy, 0.0);
         assert!((t.length_m - 4.0).abs() < 1e-12);

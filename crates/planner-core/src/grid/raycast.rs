@@ -109,6 +109,28 @@ pub fn blocked_length(grid: &PlanningGrid, points: &[Point2]) -> f64 {
         .sum()
 }
 
+/// [`blocked_length`] and, in the same traversal, the costmap cost along the polyline: each
+/// segment's length times the mean cost (as a share of 252, [`PlanningGrid::cost`]) of the cells
+/// its supercover touches, in grid units. The swarms' safety objective: one pass for both.
+pub fn blocked_and_cost_length(grid: &PlanningGrid, points: &[Point2]) -> (f64, f64) {
+    let (mut blocked_len, mut cost_len) = (0.0, 0.0);
+    for w in points.windows(2) {
+        let (mut total, mut blocked, mut cost) = (0u32, 0u32, 0u32);
+        supercover(w[0], w[1], |c| {
+            total += 1;
+            blocked += u32::from(!grid.is_free(c));
+            cost += u32::from(grid.cost(c));
+            true
+        });
+        let len = (w[1] - w[0]).norm();
+        if blocked > 0 {
+            blocked_len += len * blocked as f64 / total as f64;
+        }
+        cost_len += len * cost as f64 / (252.0 * total as f64);
+    }
+    (blocked_len, cost_len)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,11 +1,17 @@
 //! Objectives and Pareto machinery of the multi-objective swarms.
 //!
 //! Objectives (patrol car paper eq. 18): f1 the path length (m), f2 the total turning angle (rad,
-//! eq. 17). Infeasible candidates are dominated by every feasible one (constraint domination) and
-//! ordered among themselves by how much of their length lies in obstacles (`docs/papers.md`). The
-//! archive keeps at most `capacity` non-dominated feasible solutions, pruning the most crowded
-//! (NSGA-II crowding distance). The final choice is eq. 19–21: each objective normalised by its
-//! sum over the archive, then the smallest weighted sum (weight 0.5: the "midpoint" of the front).
+//! eq. 17), and (when its weight is not 0) f3 the safety cost: the costmap cost integrated along
+//! the path (`raycast::blocked_and_cost_length`, metres at cost 252), which grows as clearance
+//! falls; the
+//! paper's first future work ("an anti-collision safety objective"). Infeasible candidates are
+//! dominated by every feasible one (constraint domination) and ordered among themselves by how
+//! much of their length lies in obstacles (`docs/papers.md`). The archive keeps at most
+//! `capacity` non-dominated feasible solutions, pruning the most crowded (NSGA-II crowding
+//! distance over the active objectives). The final choice is eq. 19–21 generalised to three
+//! objectives: each normalised by its sum over the archive, then the smallest weighted sum
+//! ([`Weights`]). With the safety weight 0, f3 is never computed (it stays 0) and every step is
+//! the paper's two-objective one, number for number.
 
 /// What a candidate scores.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,6 +20,8 @@ pub struct Eval {
     pub f1: f64,
     /// Total turning angle (rad).
     pub f2: f64,
+    /// Safety cost (m at cost 252; 0 when safety is off).
+    pub f3: f64,
     /// Length (m) of the path inside blocked cells; 0 means feasible.
     pub violation: f64,
 }
@@ -22,34 +30,77 @@ impl Eval {
     pub fn feasible(&self) -> bool {
         self.violation == 0.0
     }
+
+    pub fn objectives(&self) -> [f64; 3] {
+        [self.f1, self.f2, self.f3]
+    }
+}
+
+/// The weights of eq. 21 over (length, turning, safety): `length * (1 - safety)`,
+/// `(1 - length) * (1 - safety)` and `safety`, so that safety 0 is the paper's
+/// `w L/sum L + (1 - w) Omega/sum Omega` exactly and the three always sum to 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Weights {
+    pub length: f64,
+    pub safety: f64,
+}
+
+impl Weights {
+    pub fn vector(&self) -> [f64; 3] {
+        let rest = 1.0 - self.safety;
+        [self.length * rest, (1.0 - self.length) * rest, self.safety]
+    }
+
+    /// How many objectives are active: 3 with a safety weight, else the paper's 2.
+    pub fn objectives(&self) -> usize {
+        if self.safety > 0.0 {
+            3
+        } else {
+            2
+        }
+    }
+
+    /// `sum_k w_k v_k / scale_k`, a term with weight 0 left out (so it cannot bring a NaN in).
+    pub fn scalarise(&self, v: [f64; 3], scale: [f64; 3]) -> f64 {
+        let w = self.vector();
+        let nor = |k: usize| if scale[k] > 0.0 { v[k] / scale[k] } else { 0.0 };
+        let mut total = w[0] * nor(0) + w[1] * nor(1);
+        if w[2] > 0.0 {
+            total += w[2] * nor(2);
+        }
+        total
+    }
 }
 
 /// Constraint domination: feasible beats infeasible, less violation beats more, and between
-/// feasible candidates ordinary Pareto dominance on (f1, f2).
+/// feasible candidates ordinary Pareto dominance on (f1, f2, f3) (f3 is 0 for all when safety
+/// is off, which leaves the paper's two-objective dominance).
 pub fn dominates(a: &Eval, b: &Eval) -> bool {
     match (a.feasible(), b.feasible()) {
         (true, false) => true,
         (false, true) => false,
         (false, false) => a.violation < b.violation,
-        (true, true) => a.f1 <= b.f1 && a.f2 <= b.f2 && (a.f1 < b.f1 || a.f2 < b.f2),
+        (true, true) => {
+            a.f1 <= b.f1
+                && a.f2 <= b.f2
+                && a.f3 <= b.f3
+                && (a.f1 < b.f1 || a.f2 < b.f2 || a.f3 < b.f3)
+        }
     }
 }
 
-/// NSGA-II crowding distance of each point of a front (boundary points get infinity).
-pub fn crowding_distances(points: &[(f64, f64)]) -> Vec<f64> {
+/// NSGA-II crowding distance of each point of a front over its first `objectives` values
+/// (boundary points get infinity).
+pub fn crowding_distances(points: &[[f64; 3]], objectives: usize) -> Vec<f64> {
     let n = points.len();
     let mut dist = vec![0.0; n];
     if n <= 2 {
         return vec![f64::INFINITY; n];
     }
-    for objective in 0..2 {
-        let value = |k: usize| {
-            if objective == 0 {
-                points[k].0
-            } else {
-                points[k].1
-            }
-        };
+    // `objective` picks a column of every point, not one point: a range is the plain way.
+    #[allow(clippy::needless_range_loop)]
+    for objective in 0..objectives {
+        let value = |k: usize| points[k][objective];
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| value(a).total_cmp(&value(b)).then(a.cmp(&b)));
         let span = value(order[n - 1]) - value(order[0]);
@@ -64,15 +115,17 @@ pub fn crowding_distances(points: &[(f64, f64)]) -> Vec<f64> {
     dist
 }
 
-/// Eq. 19–21: index of the member with the smallest `w * L / sum L + (1 - w) * Omega / sum Omega`.
-pub fn equal_weight_choice(front: &[(f64, f64)], length_weight: f64) -> Option<usize> {
-    let sum_l: f64 = front.iter().map(|p| p.0).sum();
-    let sum_o: f64 = front.iter().map(|p| p.1).sum();
-    let nor = |v: f64, sum: f64| if sum > 0.0 { v / sum } else { 0.0 };
+/// Eq. 19–21: index of the member with the smallest `sum_k w_k f_k / sum f_k` (with safety 0:
+/// `w * L / sum L + (1 - w) * Omega / sum Omega`).
+pub fn weighted_choice(front: &[[f64; 3]], weights: Weights) -> Option<usize> {
+    let mut sums = [0.0; 3];
+    for p in front {
+        for k in 0..3 {
+            sums[k] += p[k];
+        }
+    }
     (0..front.len()).min_by(|&a, &b| {
-        let f = |k: usize| {
-            length_weight * nor(front[k].0, sum_l) + (1.0 - length_weight) * nor(front[k].1, sum_o)
-        };
+        let f = |k: usize| weights.scalarise(front[k], sums);
         f(a).total_cmp(&f(b)).then(a.cmp(&b))
     })
 }
@@ -81,13 +134,16 @@ pub fn equal_weight_choice(front: &[(f64, f64)], length_weight: f64) -> Option<u
 #[derive(Clone, Debug)]
 pub struct Archive {
     pub capacity: usize,
+    /// How many objectives crowding measures (2, or 3 with safety).
+    pub objectives: usize,
     pub members: Vec<(Vec<f64>, Eval)>,
 }
 
 impl Archive {
-    pub fn new(capacity: usize) -> Self {
+    pub fn new(capacity: usize, objectives: usize) -> Self {
         Self {
             capacity,
+            objectives,
             members: Vec::new(),
         }
     }
@@ -100,15 +156,14 @@ impl Archive {
         if self
             .members
             .iter()
-            .any(|(_, m)| dominates(m, &e) || (m.f1 == e.f1 && m.f2 == e.f2))
+            .any(|(_, m)| dominates(m, &e) || m.objectives() == e.objectives())
         {
             return false;
         }
         self.members.retain(|(_, m)| !dominates(&e, m));
         self.members.push((x.to_vec(), e));
         if self.members.len() > self.capacity {
-            let pts: Vec<(f64, f64)> = self.objectives();
-            let d = crowding_distances(&pts);
+            let d = crowding_distances(&self.objectives(), self.objectives);
             let most_crowded = (0..d.len())
                 .min_by(|&a, &b| d[a].total_cmp(&d[b]).then(a.cmp(&b)))
                 .expect("non-empty");
@@ -117,13 +172,13 @@ impl Archive {
         true
     }
 
-    pub fn objectives(&self) -> Vec<(f64, f64)> {
-        self.members.iter().map(|(_, e)| (e.f1, e.f2)).collect()
+    pub fn objectives(&self) -> Vec<[f64; 3]> {
+        self.members.iter().map(|(_, e)| e.objectives()).collect()
     }
 
     /// The eq. 19–21 choice.
-    pub fn choose(&self, length_weight: f64) -> Option<&(Vec<f64>, Eval)> {
-        equal_weight_choice(&self.objectives(), length_weight).map(|k| &self.members[k])
+    pub fn choose(&self, weights: Weights) -> Option<&(Vec<f64>, Eval)> {
+        weighted_choice(&self.objectives(), weights).map(|k| &self.members[k])
     }
 }
 
@@ -132,12 +187,22 @@ mod tests {
     use super::*;
 
     fn e(f1: f64, f2: f64) -> Eval {
+        e3(f1, f2, 0.0)
+    }
+
+    fn e3(f1: f64, f2: f64, f3: f64) -> Eval {
         Eval {
             f1,
             f2,
+            f3,
             violation: 0.0,
         }
     }
+
+    const PAPER: Weights = Weights {
+        length: 0.5,
+        safety: 0.0,
+    };
 
     #[test]
     fn dominance_on_hand_made_points() {
@@ -146,32 +211,46 @@ mod tests {
         assert!(!dominates(&e(1.0, 2.0), &e(2.0, 1.0)));
         assert!(!dominates(&e(1.0, 1.0), &e(1.0, 1.0)));
         let bad = Eval {
-            f1: 0.1,
-            f2: 0.0,
             violation: 2.0,
+            ..e(0.1, 0.0)
         };
         let worse = Eval {
-            f1: 0.1,
-            f2: 0.0,
             violation: 3.0,
+            ..e(0.1, 0.0)
         };
         assert!(dominates(&e(100.0, 100.0), &bad));
         assert!(!dominates(&bad, &e(100.0, 100.0)));
         assert!(dominates(&bad, &worse));
+        // The third objective: equal length and turning, the safer one dominates; a shorter but
+        // less safe one does not.
+        assert!(dominates(&e3(1.0, 1.0, 0.5), &e3(1.0, 1.0, 0.9)));
+        assert!(!dominates(&e3(0.9, 1.0, 0.9), &e3(1.0, 1.0, 0.5)));
+        assert!(!dominates(&e3(1.0, 1.0, 0.5), &e3(0.9, 1.0, 0.9)));
     }
 
     #[test]
     fn crowding_on_a_hand_made_front() {
         // Front (1,5) (2,3) (4,2) (5,1): spans 4 and 4.
-        let d = crowding_distances(&[(1.0, 5.0), (2.0, 3.0), (4.0, 2.0), (5.0, 1.0)]);
+        let front = [
+            [1.0, 5.0, 9.0],
+            [2.0, 3.0, 1.0],
+            [4.0, 2.0, 0.0],
+            [5.0, 1.0, 5.0],
+        ];
+        let d = crowding_distances(&front, 2);
         assert!(d[0].is_infinite() && d[3].is_infinite());
-        // (2,3): (4-1)/4 + (5-2)/4 = 1.5; (4,2): (5-2)/4 + (3-1)/4 = 1.25.
+        // (2,3): (4-1)/4 + (5-2)/4 = 1.5; (4,2): (5-2)/4 + (3-1)/4 = 1.25. The third values are
+        // not read with two objectives.
         assert!((d[1] - 1.5).abs() < 1e-12 && (d[2] - 1.25).abs() < 1e-12);
+        // With three, (4,2,0) is the f3 boundary (infinite) and (2,3,1) gains (5-0)/9.
+        let d = crowding_distances(&front, 3);
+        assert!(d[2].is_infinite());
+        assert!((d[1] - (1.5 + 5.0 / 9.0)).abs() < 1e-12);
     }
 
     #[test]
     fn archive_keeps_the_front_and_prunes_the_most_crowded() {
-        let mut a = Archive::new(3);
+        let mut a = Archive::new(3, 2);
         assert!(a.offer(&[0.0], e(1.0, 5.0)));
         assert!(a.offer(&[1.0], e(5.0, 1.0)));
         assert!(!a.offer(&[2.0], e(6.0, 6.0)), "dominated");
@@ -179,9 +258,8 @@ mod tests {
             !a.offer(
                 &[9.0],
                 Eval {
-                    f1: 0.0,
-                    f2: 0.0,
-                    violation: 1.0
+                    violation: 1.0,
+                    ..e(0.0, 0.0)
                 }
             ),
             "infeasible"
@@ -204,12 +282,30 @@ mod tests {
     fn eq19_21_on_a_hand_made_front() {
         // L = 30, 32, 40 (sum 102); Omega = 6, 3, 1 (sum 10).
         // f = 0.5 L/102 + 0.5 Omega/10 = 0.447, 0.307, 0.246: the last wins.
-        let front = [(30.0, 6.0), (32.0, 3.0), (40.0, 1.0)];
-        assert_eq!(equal_weight_choice(&front, 0.5), Some(2));
+        let front = [[30.0, 6.0, 3.0], [32.0, 3.0, 2.0], [40.0, 1.0, 0.5]];
+        let w = |length, safety| Weights { length, safety };
+        assert_eq!(weighted_choice(&front, PAPER), Some(2));
         // All weight on length: the shortest.
-        assert_eq!(equal_weight_choice(&front, 1.0), Some(0));
+        assert_eq!(weighted_choice(&front, w(1.0, 0.0)), Some(0));
         // 0.8 on length: 0.8*30/102+0.2*0.6 = 0.355, 0.8*32/102+0.06 = 0.311, 0.8*40/102+0.02 = 0.334.
-        assert_eq!(equal_weight_choice(&front, 0.8), Some(1));
-        assert_eq!(equal_weight_choice(&[], 0.5), None);
+        assert_eq!(weighted_choice(&front, w(0.8, 0.0)), Some(1));
+        // Safety 0.5 with length 1 (S sum 5.5): 0.5*30/102+0.5*3/5.5 = 0.420, 0.5*32/102+0.5*2/5.5
+        // = 0.339, 0.5*40/102+0.5*0.5/5.5 = 0.242: the safest.
+        assert_eq!(weighted_choice(&front, w(1.0, 0.5)), Some(2));
+        assert_eq!(weighted_choice(&[], PAPER), None);
+    }
+
+    #[test]
+    fn weights_sum_to_one_and_safety_zero_is_the_paper() {
+        let v = Weights {
+            length: 0.3,
+            safety: 0.4,
+        }
+        .vector();
+        assert!((v.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        assert_eq!(PAPER.vector(), [0.5, 0.5, 0.0]);
+        assert_eq!(PAPER.objectives(), 2);
+        // A zero-weight term with a zero scale does not bring a NaN in.
+        assert_eq!(PAPER.scalarise([2.0, 4.0, 1.0], [4.0, 4.0, 0.0]), 0.75);
     }
 }
