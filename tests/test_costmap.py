@@ -2,12 +2,19 @@
 as costmap_2d publishes it (0 free, 1..98 graded, 99 inscribed, 100 lethal) as its planning grid,
 and cost-aware A* (`search.cost_travel_multiplier`) goes round a band of high (not lethal) cost
 across the direct route, through the gap beside it. /diagnostics reports the plan's clearance and
-cost. The node runs on a domain of its own; nothing is published on /map."""
+cost. The node runs on a domain of its own; nothing is published on /map.
+
+And the safety weight set at run time: the same GetPlan on the bundled map, first in the paper's
+two-objective mode (swarm.safety_weight 0), then after `ros2 param set /patrol_planner
+swarm.safety_weight 0.5`, comes back with a larger mean clearance on /diagnostics."""
 import numpy as np
 import rclpy
 from nav_msgs.msg import OccupancyGrid
+from nav_msgs.srv import GetPlan
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
 
-from conftest import LATCHED, Ros, domain_id, initial_pose, stamped, start_node, stop_binary
+from conftest import LATCHED, ROOT, Ros, call_service, domain_id, initial_pose, stamped, start_node, stop_binary
 from test_node import grid_msg
 
 TOPIC = "/global_costmap/costmap"
@@ -45,6 +52,41 @@ def test_a_high_cost_band_on_the_costmap_is_avoided(tmp_path):
         statuses = [d for d in ros.diagnostics_since(0) if d[0] == "NONE"]
         assert statuses and float(statuses[-1][2]["path_cost"]) < 0.5
         assert "mean_clearance_m" in statuses[-1][2]
+    finally:
+        ros.close()
+        stop_binary(proc)
+
+
+def test_the_safety_weight_set_at_run_time_moves_the_next_plan_off_the_walls(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n"
+        f"    map_yaml: {ROOT / 'config' / 'maps' / 'datacenter_100.yaml'}\n"
+        "    follow_plan: false\n    planner: mocmcso\n    seed: 7\n"
+        "    swarm: {safety_weight: 0.0}\n"
+    )
+    domain = domain_id(31)
+    proc = start_node(domain, params, "safety_weight_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        def clearance():
+            before = len(ros.diagnostics)
+            # The bench's aisle_run: along an aisle between cabinet rows, across the room.
+            req = GetPlan.Request(start=stamped(0.5, 6.1), goal=stamped(19.5, 14.9), tolerance=0.0)
+            response = call_service(ros, GetPlan, "/patrol_planner/make_plan", req)
+            assert response.plan.poses, "no plan"
+            done = ros.wait_code(before, "NONE")
+            return float(done[2]["mean_clearance_m"]), float(done[2]["length_m"])
+
+        paper, paper_length = clearance()
+        value = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=0.5)
+        request = SetParameters.Request(parameters=[Parameter(name="swarm.safety_weight", value=value)])
+        result = call_service(ros, SetParameters, "/patrol_planner/set_parameters", request)
+        assert result.results[0].successful, result.results[0].reason
+        safe, safe_length = clearance()
+        print(f"mean clearance {paper:.3f} m ({paper_length:.2f} m long) -> {safe:.3f} m ({safe_length:.2f} m long)")
+        assert safe > paper + 0.1, f"mean clearance {paper} -> {safe}"
+        assert safe_length < 1.15 * paper_length
     finally:
         ros.close()
         stop_binary(proc)

@@ -29,7 +29,7 @@ use crate::inputs;
 use crate::lifecycle;
 use crate::localization::Localization;
 use crate::outputs::{CmdVel, Outputs};
-use crate::params::validate_parameter;
+use crate::params::{validate_parameter, with_weight, WEIGHTS};
 use crate::planning::{self, install_map};
 use crate::state::{GoalSlot, Live, Shared};
 use anyhow::Result;
@@ -73,6 +73,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         planner: planning.planner,
         max_planning_time: planning.max_planning_time,
         tolerance: planning.tolerance,
+        config: planning.clone(),
     };
     let shared = Arc::new(Shared {
         params: params.clone(),
@@ -101,7 +102,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         }),
     });
     let on_set = shared.clone();
-    let options = NodeOptions::new()
+    let mut options = NodeOptions::new()
         .enable_rosout(true)
         .start_parameter_services(true)
         .declare_parameter("planner", ParameterValue::String(live.planner.to_string()))
@@ -122,11 +123,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
                 }
                 ("max_planning_time", ParameterValue::Double(v)) => l.max_planning_time = *v,
                 ("tolerance", ParameterValue::Double(v)) => l.tolerance = *v,
+                (_, ParameterValue::Double(v)) => match with_weight(&l.config, name, *v) {
+                    Some(Ok(config)) => l.config = config,
+                    Some(Err(reason)) => return Err(reason),
+                    None => return Err(format!("`{name}` cannot be set at run time")),
+                },
                 _ => return Err(format!("`{name}` cannot be set at run time")),
             }
             info!("parameter {name} set to {value:?}");
             Ok(())
         }));
+    for w in WEIGHTS {
+        options = options.declare_parameter(w.name, ParameterValue::Double((w.get)(&live.config)));
+    }
     let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(NodeName::new(&naming.namespace, &naming.node)?, options)?;
     let spinner = tokio::spawn(node.spinner()?.spin());

@@ -58,7 +58,7 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     };
     let config = PlannerConfig {
         planner: chosen,
-        ..s.planning.clone()
+        ..live.config
     };
     let planner = match registry::build(&config) {
         Ok(p) => p,

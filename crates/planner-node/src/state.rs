@@ -19,6 +19,9 @@ pub struct Live {
     pub planner: PlannerName,
     pub max_planning_time: f64,
     pub tolerance: f64,
+    /// The planning configuration with the objective weights as last set
+    /// (`crate::params::WEIGHTS`); the next plan is built from it.
+    pub config: PlannerConfig,
 }
 
 /// A validated map's planning grid (inflated obstacles, clearance, the map's metadata).
