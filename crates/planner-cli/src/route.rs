@@ -20,8 +20,19 @@ pub struct RouteArgs {
     map: PathBuf,
     /// Route file (YAML): `points: [{name, x, y, yaw, dwell}, ...]` in map metres, radians and
     /// seconds; optional `start: {x, y, yaw}` (default: the first point) and `home: NAME`.
-    #[arg(long)]
-    points: PathBuf,
+    #[arg(long, required_unless_present = "random_routes")]
+    points: Option<PathBuf>,
+    /// Instead of a route file: draw this many random routes on the map (`--route-points` points
+    /// each, connected to a random start, no dwell) and report how much time the optimised order
+    /// saves against the order drawn, per route and on average.
+    #[arg(long, conflicts_with = "points")]
+    random_routes: Option<usize>,
+    /// Points per random route.
+    #[arg(long, default_value_t = 10, requires = "random_routes")]
+    route_points: usize,
+    /// The seed of the random routes.
+    #[arg(long, default_value_t = 33, requires = "random_routes")]
+    random_seed: u64,
     /// The planner of the chosen legs (`patrol-plan planners` lists them); the order itself comes
     /// from string-pulled grid paths. Each leg is planned with the config's `seed` (else 0).
     #[arg(long, default_value = "any_angle")]
@@ -53,10 +64,77 @@ fn read_route(path: &Path) -> Result<RouteFile> {
     RouteFile::parse(&bytes).with_context(|| path.display().to_string())
 }
 
+/// One random route's figures.
+#[derive(Serialize)]
+struct RandomRoute {
+    method: planner_core::route::OrderMethod,
+    total_time_s: f64,
+    given_order_time_s: f64,
+    total_length_m: f64,
+    given_order_length_m: f64,
+    skipped: usize,
+}
+
+/// `--random-routes`: the optimised order against the drawn one on random routes (legs from the
+/// leg matrix's string-pulled grid paths, as the order itself is chosen).
+fn random_routes(args: &RouteArgs, n: usize) -> Result<()> {
+    use planner_core::grid::sampling::random_route;
+    use planner_core::planner::PlannerRng;
+    use rand::SeedableRng;
+    let config = load_config(args.common.config.as_deref())?;
+    let ws = Workspace::load(&args.map, config)?;
+    let options = RouteOptions {
+        closed: args.closed,
+        ..RouteOptions::default()
+    };
+    let mut rng = PlannerRng::seed_from_u64(args.random_seed);
+    let t0 = Instant::now();
+    let mut routes = Vec::with_capacity(n);
+    for k in 0..n {
+        let route = random_route(&ws.grid, args.route_points, &mut rng)
+            .with_context(|| format!("drawing random route {k} on {}", args.map.display()))?;
+        let plan = plan_route(&ws.grid, &route, &options, None)
+            .with_context(|| format!("planning random route {k}"))?;
+        routes.push(RandomRoute {
+            method: plan.method,
+            total_time_s: plan.total_time_s,
+            given_order_time_s: plan.given_order_time_s,
+            total_length_m: plan.total_length_m,
+            given_order_length_m: plan.given_order_length_m,
+            skipped: plan.skipped.len(),
+        });
+    }
+    let mean =
+        |f: &dyn Fn(&RandomRoute) -> f64| routes.iter().map(f).sum::<f64>() / n.max(1) as f64;
+    let out = serde_json::json!({
+        "map": args.map.display().to_string(),
+        "routes": n,
+        "points_per_route": args.route_points,
+        "random_seed": args.random_seed,
+        "closed": args.closed,
+        "time_ms": t0.elapsed().as_secs_f64() * 1e3,
+        "mean_total_time_s": mean(&|r| r.total_time_s),
+        "mean_given_order_time_s": mean(&|r| r.given_order_time_s),
+        "mean_saving_s": mean(&|r| r.given_order_time_s - r.total_time_s),
+        "mean_saving_share": mean(&|r| 1.0 - r.total_time_s / r.given_order_time_s),
+        "worst_saving_share": routes
+            .iter()
+            .map(|r| 1.0 - r.total_time_s / r.given_order_time_s)
+            .fold(f64::INFINITY, f64::min),
+        "per_route": routes,
+    });
+    println!("{}", serde_json::to_string(&out)?);
+    Ok(())
+}
+
 pub fn run(args: &RouteArgs) -> Result<()> {
+    if let Some(n) = args.random_routes {
+        return random_routes(args, n);
+    }
     let config = load_config(args.common.config.as_deref())?;
     let seed = config.seed.unwrap_or(0);
-    let mut route = read_route(&args.points)?;
+    let points = args.points.as_ref().expect("clap requires --points here");
+    let mut route = read_route(points)?;
     if args.home.is_some() {
         route.home.clone_from(&args.home);
     }
@@ -80,7 +158,7 @@ pub fn run(args: &RouteArgs) -> Result<()> {
     };
     let t0 = Instant::now();
     let plan = plan_route(&ws.grid, &route, &options, Some(&mut legs))
-        .with_context(|| format!("planning the route of {}", args.points.display()))?;
+        .with_context(|| format!("planning the route of {}", points.display()))?;
     let out = RouteOutput {
         planner: args.planner,
         time_ms: t0.elapsed().as_secs_f64() * 1e3,
