@@ -108,6 +108,13 @@ enum Command {
 }
 
 fn main() {
+    // Output piped into a reader that stops early (`patrol-plan plan ... | head`): end quietly as
+    // Unix tools do, instead of panicking on the broken pipe in println!.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of one signal before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // Errors are for users: one line of causes, no backtrace (even with RUST_BACKTRACE set).
     if let Err(e) = run(Cli::parse()) {
         eprintln!("error: {e:#}");
