@@ -12,6 +12,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use planner_core::grid::sampling::{random_queries, QuerySampling};
 use planner_core::planner::PlannerRng;
+use planner_core::swarm::pareto::hypervolume_2d;
 use planner_core::PlannerName;
 use rand::SeedableRng;
 use serde::Serialize;
@@ -91,9 +92,18 @@ pub struct Row {
     pub improved_on_seed: Option<u64>,
     /// How the successful runs ended, e.g. `max_iterations x3, converged x2`.
     pub terminations: String,
+    /// Median over runs of the hypervolume of the planner's final front (planners that return
+    /// one): see [`HV_REFERENCE`].
+    pub hypervolume_median: Option<f64>,
     /// The first failure's reason, when a run failed.
     pub failure: Option<String>,
 }
+
+/// The hypervolume's reference point, in units of A*'s path on the same query: each front
+/// member's length and turning are divided by A*'s (seed 0; its turning at least 0.1 rad) and
+/// the area it dominates below (1.2, 1.2) is counted, so a member counts only within 20 % of
+/// A*'s length and turning, and a front of one point at A*'s own values scores 0.04.
+pub const HV_REFERENCE: (f64, f64) = (1.2, 1.2);
 
 fn mean(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
@@ -186,7 +196,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         for sc in scenarios {
             let query = ws.query(sc.start, sc.goal);
             bar.set_message(format!("{map_name}/{} reference", sc.name));
-            let astar_found_path = ws.run(PlannerName::Astar, &query, 0)?.0.is_ok();
+            let astar = ws.run(PlannerName::Astar, &query, 0)?.0.ok();
+            let astar_found_path = astar.is_some();
+            // The hypervolume's units: A*'s length and turning on this query.
+            let units = astar
+                .as_ref()
+                .map(|p| (p.metrics.length_m, p.metrics.turning_rad.max(0.1)));
             let reference = ws
                 .run(PlannerName::AnyAngle, &query, 0)?
                 .0
@@ -207,6 +222,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let (mut mean_clear, mut cost) = (vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
                 let mut improved: Option<u64> = None;
+                let mut volumes = Vec::new();
                 let mut ends: std::collections::BTreeMap<String, u64> = Default::default();
                 for seed in 0..args.runs {
                     let (result, t) = ws.run(*planner, &query, seed)?;
@@ -224,6 +240,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             iters.push(plan.stats.iterations as f64);
                             if let Some(b) = plan.stats.best_iteration {
                                 best_it.push(b as f64);
+                            }
+                            if let (false, Some((l, t))) = (plan.pareto.is_empty(), units) {
+                                let front: Vec<(f64, f64)> = plan
+                                    .pareto
+                                    .iter()
+                                    .map(|m| (m.f1_length_m / l, m.f2_turning_rad / t))
+                                    .collect();
+                                volumes.push(hypervolume_2d(&front, HV_REFERENCE));
                             }
                             if let Some(v) = plan.stats.counters.get("improved_on_seed") {
                                 *improved.get_or_insert(0) += u64::from(*v > 0.0);
@@ -263,6 +287,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     best_iteration_mean: mean(&best_it),
                     reference_length_m: reference,
                     astar_found_path,
+                    hypervolume_median: (!volumes.is_empty()).then(|| median(volumes)),
                     improved_on_seed: improved,
                     terminations: ends
                         .iter()
@@ -302,9 +327,9 @@ fn summary(s: &mut String, rows: &[Row]) {
     );
     let _ = writeln!(
         s,
-        "| map | planner | solvable: ok | collision-free | unsolvable: NO_VALID_PATH | length vs any-angle | mean clearance (m) | median time vs A* | improved on seed |"
+        "| map | planner | solvable: ok | collision-free | unsolvable: NO_VALID_PATH | length vs any-angle | turning (rad) | mean clearance (m) | median time vs A* | improved on seed | hypervolume (median of rows) |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
     for (map, planner) in keys {
         let mine: Vec<&Row> = rows
             .iter()
@@ -339,13 +364,25 @@ fn summary(s: &mut String, rows: &[Row]) {
             .reduce(|a, b| (a.0 + b.0, a.1 + b.1));
         let _ = writeln!(
             s,
-            "| {map} | {planner} | {ok}/{} | {free} | {refused}/{} | {} | {} | {} | {} |",
+            "| {map} | {planner} | {ok}/{} | {free} | {refused}/{} | {} | {} | {} | {} | {} | {} |",
             runs(&solvable),
             runs(&unsolvable),
             f(avg(&|r| r.length_ratio_mean), 3),
+            f(avg(&|r| r.turning_rad_mean), 2),
             f(avg(&|r| r.mean_clearance_m_mean), 2),
             f((!ratios.is_empty()).then(|| median(ratios.clone())), 2),
             improved.map_or("–".into(), |(n, d)| format!("{n}/{d}")),
+            f(
+                Some(
+                    solvable
+                        .iter()
+                        .filter_map(|r| r.hypervolume_median)
+                        .collect::<Vec<_>>(),
+                )
+                .filter(|v| !v.is_empty())
+                .map(median),
+                4
+            ),
         );
     }
     let _ = writeln!(s);
@@ -375,7 +412,7 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
     };
     let _ = writeln!(
         s,
-        "Produced by `patrol-plan bench {source} --planners {} --runs {}`{}{}.\n",
+        "Produced by `patrol-plan bench {source} --planners {} --runs {}{}{}`.\n",
         args.planners
             .iter()
             .map(|p| p.as_str())
@@ -395,20 +432,23 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
     let _ = writeln!(
         s,
         "Lengths in m (ratio: mean length / any-angle reference), turning in rad, times in ms \
-         (ratio: median / A*'s median on the same query in the same run).\n"
+         (ratio: median / A*'s median on the same query in the same run). Hypervolume: of the \
+         final front's (length, turning), each divided by A*'s on the query (turning at least \
+         0.1 rad), below the reference point ({}, {}); the median over the runs.\n",
+        HV_REFERENCE.0, HV_REFERENCE.1
     );
     let _ = writeln!(
         s,
-        "| map | scenario | planner | A* path | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | path cost | time median | vs A* | iterations | best at | improved on seed | termination |"
+        "| map | scenario | planner | A* path | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | path cost | time median | vs A* | iterations | best at | improved on seed | hypervolume | termination |"
     );
     let _ = writeln!(
         s,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} | {} |",
             r.map,
             r.scenario,
             r.planner,
@@ -431,6 +471,7 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
             f(r.best_iteration_mean, 1),
             r.improved_on_seed
                 .map_or("–".into(), |n| format!("{n}/{}", r.successes)),
+            f(r.hypervolume_median, 4),
             r.terminations,
         );
     }

@@ -13,6 +13,7 @@ use crate::grid::inflation::InflationConfig;
 use crate::params::{check, ParamError, Range};
 use crate::registry::PlannerName;
 use crate::search::SearchParams;
+use crate::swarm::nsga2::Nsga2Params;
 use crate::swarm::SwarmParams;
 use serde::{Deserialize, Serialize};
 
@@ -51,6 +52,9 @@ pub struct PlannerConfig {
     pub colony: ColonyParams,
     /// The genetic planners (imga, ga): the genetic algorithm paper's parameters.
     pub genetic: GaParams,
+    /// The NSGA-II baseline (nsga2): its operators and evaluation budget; its search space and
+    /// weights are the swarms'.
+    pub nsga2: Nsga2Params,
 }
 
 pub fn default_planner() -> PlannerName {
@@ -82,6 +86,7 @@ impl Default for PlannerConfig {
             swarm: SwarmParams::default(),
             colony: ColonyParams::default(),
             genetic: GaParams::default(),
+            nsga2: Nsga2Params::default(),
         }
     }
 }
@@ -106,7 +111,8 @@ impl PlannerConfig {
         self.apf.validate()?;
         self.swarm.validate()?;
         self.colony.validate()?;
-        self.genetic.validate()
+        self.genetic.validate()?;
+        self.nsga2.validate()
     }
 
     /// The potential field's parameters with R of eq. 9 (the chassis radius) resolved: the

@@ -10,6 +10,7 @@ use crate::params::ParamError;
 use crate::planner::Planner;
 use crate::search::any_angle::AnyAngle;
 use crate::search::astar::AStar;
+use crate::swarm::nsga2::Nsga2Planner;
 use crate::swarm::{SwarmPlanner, Variant};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -42,11 +43,12 @@ pub enum PlannerName {
     /// The genetic algorithm paper's improved multi-objective GA.
     Imga,
     Ga,
+    Nsga2,
 }
 
 impl PlannerName {
     /// Every planner, in the order tables list them.
-    pub const ALL: [PlannerName; 15] = [
+    pub const ALL: [PlannerName; 16] = [
         PlannerName::Astar,
         PlannerName::AnyAngle,
         PlannerName::Apf,
@@ -62,6 +64,7 @@ impl PlannerName {
         PlannerName::AcoApf,
         PlannerName::Imga,
         PlannerName::Ga,
+        PlannerName::Nsga2,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -81,6 +84,7 @@ impl PlannerName {
             PlannerName::AcoApf => "aco_apf",
             PlannerName::Imga => "imga",
             PlannerName::Ga => "ga",
+            PlannerName::Nsga2 => "nsga2",
         }
     }
 
@@ -172,6 +176,11 @@ pub fn build(config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
         PlannerName::AcoApf => colony(ColonyVariant::AcoApf),
         PlannerName::Imga => genetic(GaVariant::Imga),
         PlannerName::Ga => genetic(GaVariant::Ga),
+        PlannerName::Nsga2 => Box::new(Nsga2Planner {
+            params: config.nsga2.clone(),
+            swarm: config.swarm.clone(),
+            apf: apf.clone(),
+        }),
     })
 }
 

@@ -77,15 +77,18 @@ fn every_planner_is_collision_free_and_deterministic_on_the_bench_maps() {
                     );
                     for a in &plan.pareto {
                         for b in &plan.pareto {
+                            // Three objectives: length, turning and safety (0 when off).
                             let dominates = a.f1_length_m <= b.f1_length_m
                                 && a.f2_turning_rad <= b.f2_turning_rad
+                                && a.f3_safety <= b.f3_safety
                                 && (a.f1_length_m < b.f1_length_m
-                                    || a.f2_turning_rad < b.f2_turning_rad);
+                                    || a.f2_turning_rad < b.f2_turning_rad
+                                    || a.f3_safety < b.f3_safety);
                             assert!(!dominates, "{at}: the front holds a dominated member");
                         }
                     }
                     assert!(plan.stats.termination.is_some(), "{at}: no termination");
-                    if name.as_str().starts_with("mo") {
+                    if name.as_str().starts_with("mo") || name == PlannerName::Nsga2 {
                         assert!(
                             !plan.pareto.is_empty(),
                             "{at}: a Pareto planner without a front"

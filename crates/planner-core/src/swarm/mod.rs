@@ -29,6 +29,7 @@
 //! `init_spread` of each dimension's range around the seed.
 
 pub mod encoding;
+pub mod nsga2;
 pub mod pareto;
 
 use crate::driver::{drive, Budget, Population};
@@ -257,45 +258,7 @@ impl Planner for SwarmPlanner {
 
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
         let grid = problem.grid;
-        let mut start_stats = PlanStats::default();
-        let raw = seed_path(problem, self, ctx, &mut start_stats)?;
-        let allow_lateral = self.params.encoding == EncodingChoice::Auto;
-        // The paper's first global best is the field's path itself, sampled at the stations
-        // (section II.E step 2). Where those samples cut a corner into an obstacle, the
-        // string-pulled path (delete operation) is expressed instead.
-        let lateral = allow_lateral
-            .then(|| {
-                Encoding::lateral(
-                    grid,
-                    problem.start_point,
-                    problem.goal_point,
-                    self.params.waypoints,
-                )
-            })
-            .flatten()
-            .and_then(|enc| {
-                enc.encode(&raw)
-                    .filter(|x| path_is_free(grid, &enc.decode(x)))
-                    .map(|x| (enc, x))
-            });
-        let (enc, seed_x) = match lateral {
-            Some(chosen) => chosen,
-            None => {
-                start_stats.notes.push(
-                    "seed: string-pulled, since the raw path does not fit the lateral stations"
-                        .into(),
-                );
-                Encoding::choose(
-                    grid,
-                    &delete_redundant(grid, &raw),
-                    self.params.waypoints,
-                    allow_lateral,
-                )
-            }
-        };
-        start_stats
-            .notes
-            .push(format!("encoding: {}, dimension {}", enc.name(), enc.dim()));
+        let (enc, seed_x, start_stats) = start(problem, &self.params, &self.apf, ctx)?;
         let swarm = Swarm::new(
             Search::new(grid, &enc, &self.params, self.variant),
             seed_x,
@@ -309,17 +272,68 @@ impl Planner for SwarmPlanner {
     }
 }
 
+/// The search space and the first member every population over it starts from: the seed path
+/// (see [`seed_path`]) and the encoding it is expressed in (the paper's lateral stations where
+/// the seed fits them, else the general one), with the notes saying which.
+pub(crate) fn start(
+    problem: &Problem<'_>,
+    params: &SwarmParams,
+    apf: &ApfParams,
+    ctx: &PlanContext<'_>,
+) -> Result<(Encoding, Vec<f64>, PlanStats), PlanError> {
+    let grid = problem.grid;
+    let mut start_stats = PlanStats::default();
+    let raw = seed_path(problem, params, apf, ctx, &mut start_stats)?;
+    let allow_lateral = params.encoding == EncodingChoice::Auto;
+    // The paper's first global best is the field's path itself, sampled at the stations
+    // (section II.E step 2). Where those samples cut a corner into an obstacle, the
+    // string-pulled path (delete operation) is expressed instead.
+    let lateral = allow_lateral
+        .then(|| {
+            Encoding::lateral(
+                grid,
+                problem.start_point,
+                problem.goal_point,
+                params.waypoints,
+            )
+        })
+        .flatten()
+        .and_then(|enc| {
+            enc.encode(&raw)
+                .filter(|x| path_is_free(grid, &enc.decode(x)))
+                .map(|x| (enc, x))
+        });
+    let (enc, seed_x) = match lateral {
+        Some(chosen) => chosen,
+        None => {
+            start_stats.notes.push(
+                "seed: string-pulled, since the raw path does not fit the lateral stations".into(),
+            );
+            Encoding::choose(
+                grid,
+                &delete_redundant(grid, &raw),
+                params.waypoints,
+                allow_lateral,
+            )
+        }
+    };
+    start_stats
+        .notes
+        .push(format!("encoding: {}, dimension {}", enc.name(), enc.dim()));
+    Ok((enc, seed_x, start_stats))
+}
+
 /// The swarm's first global best: the potential-field path, or A*'s when the field cannot reach
 /// the goal (with safety on: cost-aware A*'s), as a feasible polyline from the exact start to
 /// the exact goal.
 fn seed_path(
     problem: &Problem<'_>,
-    planner: &SwarmPlanner,
+    p: &SwarmParams,
+    apf: &ApfParams,
     ctx: &PlanContext<'_>,
     stats: &mut PlanStats,
 ) -> Result<Vec<Point2>, PlanError> {
     let grid = problem.grid;
-    let p = &planner.params;
     let cells = if p.safety_weight > 0.0 {
         stats.notes.push(format!(
             "seed: cost-aware A* (multiplier {}), since safety is weighted",
@@ -334,7 +348,7 @@ fn seed_path(
         )?
         .0
     } else {
-        field_or_astar(problem, &planner.apf, ctx, stats, "seed")?
+        field_or_astar(problem, apf, ctx, stats, "seed")?
     };
     let mut pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
     pts[0] = problem.start_point;

@@ -130,6 +130,31 @@ pub fn weighted_choice(front: &[[f64; 3]], weights: Weights) -> Option<usize> {
     })
 }
 
+/// The hypervolume (area) that a front of (f1, f2) points dominates below `reference`: the
+/// front-quality measure of the bench (issue 12), computed on length and turning only. Points
+/// not strictly below the reference in both add nothing; dominated points add nothing either.
+pub fn hypervolume_2d(points: &[(f64, f64)], reference: (f64, f64)) -> f64 {
+    let mut inside: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|&(a, b)| a < reference.0 && b < reference.1)
+        .collect();
+    inside.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.total_cmp(&q.1)));
+    // The staircase: by f1 ascending, each kept point strictly lower in f2 than the last.
+    let mut stairs: Vec<(f64, f64)> = Vec::with_capacity(inside.len());
+    for p in inside {
+        if stairs.last().is_none_or(|last| p.1 < last.1) {
+            stairs.push(p);
+        }
+    }
+    (0..stairs.len())
+        .map(|k| {
+            let next = stairs.get(k + 1).map_or(reference.0, |q| q.0);
+            (next - stairs[k].0) * (reference.1 - stairs[k].1)
+        })
+        .sum()
+}
+
 /// The external archive: non-dominated feasible solutions.
 #[derive(Clone, Debug)]
 pub struct Archive {
@@ -293,6 +318,21 @@ mod tests {
         // = 0.339, 0.5*40/102+0.5*0.5/5.5 = 0.242: the safest.
         assert_eq!(weighted_choice(&front, w(1.0, 0.5)), Some(2));
         assert_eq!(weighted_choice(&[], PAPER), None);
+    }
+
+    #[test]
+    fn hypervolume_on_hand_made_fronts() {
+        let r = (4.0, 4.0);
+        // One point (1, 1): a 3 x 3 square.
+        assert_eq!(hypervolume_2d(&[(1.0, 1.0)], r), 9.0);
+        // (1, 3) and (3, 1): 3 x 1 + 1 x 3 - 1 x 1 overlap = 5 (2 x 1 + 1 x 3).
+        assert_eq!(hypervolume_2d(&[(3.0, 1.0), (1.0, 3.0)], r), 5.0);
+        // A dominated point and one outside the reference add nothing.
+        assert_eq!(
+            hypervolume_2d(&[(3.0, 1.0), (1.0, 3.0), (3.0, 3.0), (5.0, 0.0)], r),
+            5.0
+        );
+        assert_eq!(hypervolume_2d(&[], r), 0.0);
     }
 
     #[test]
