@@ -133,10 +133,18 @@ struct Job {
     goal: [f64; 2],
 }
 
+/// A map's name in the tables: its file stem, or its folder's name when the stem is the
+/// uninformative `map` (ROS packages ship `maps/<name>/map.yaml`).
 fn stem(path: &std::path::Path) -> String {
-    path.file_stem()
-        .map(|s| s.to_string_lossy().to_string())
-        .unwrap_or_default()
+    let name = |p: &std::path::Path| p.file_stem().map(|s| s.to_string_lossy().to_string());
+    match name(path).as_deref() {
+        Some("map") => path
+            .parent()
+            .and_then(|d| d.file_name())
+            .map(|d| d.to_string_lossy().to_string())
+            .unwrap_or_else(|| "map".into()),
+        other => other.unwrap_or_default().to_string(),
+    }
 }
 
 /// The maps and their queries: from scenario files, or drawn at random on `--map`s.
