@@ -90,6 +90,9 @@ pub struct Row {
     /// Runs whose chosen path differs from the planner's seed path (population planners that
     /// report it).
     pub improved_on_seed: Option<u64>,
+    /// Runs whose potential field (the path of `apf`/`eapf`, the seed of the others) could not
+    /// reach the goal by its own descent, so that A* stood in (counter `apf_fallback`).
+    pub apf_fallbacks: u64,
     /// How the successful runs ended, e.g. `max_iterations x3, converged x2`.
     pub terminations: String,
     /// Median over runs of the hypervolume of the planner's final front (planners that return
@@ -231,6 +234,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let (mut ok, mut free, mut failure) = (0, 0, None);
                 let mut improved: Option<u64> = None;
                 let mut volumes = Vec::new();
+                let mut fallbacks = 0u64;
                 let mut ends: std::collections::BTreeMap<String, u64> = Default::default();
                 for seed in 0..args.runs {
                     let (result, t) = ws.run(*planner, &query, seed)?;
@@ -257,6 +261,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                                     .collect();
                                 volumes.push(hypervolume_2d(&front, HV_REFERENCE));
                             }
+                            fallbacks +=
+                                u64::from(plan.stats.counters.contains_key("apf_fallback"));
                             if let Some(v) = plan.stats.counters.get("improved_on_seed") {
                                 *improved.get_or_insert(0) += u64::from(*v > 0.0);
                             }
@@ -295,6 +301,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     best_iteration_mean: mean(&best_it),
                     reference_length_m: reference,
                     astar_found_path,
+                    apf_fallbacks: fallbacks,
                     hypervolume_median: (!volumes.is_empty()).then(|| median(volumes)),
                     improved_on_seed: improved,
                     terminations: ends

@@ -4,7 +4,7 @@
 //! 2: the APF path is the first global best), the improved colony takes it as its first good path
 //! (substation paper, section 3.3).
 
-use crate::field::{descend, ApfParams};
+use crate::field::{descend, ApfParams, Attraction};
 use crate::geometry::Cell;
 use crate::planner::{PlanContext, PlanError, PlanStats, Problem};
 use crate::search::astar::astar_cells;
@@ -23,13 +23,26 @@ pub fn field_or_astar(
 ) -> Result<Vec<Cell>, PlanError> {
     match descend(problem.grid, field, problem.start, problem.goal) {
         Ok(path) => {
-            stats
-                .counters
-                .insert("apf_escapes".into(), path.escapes as f64);
-            stats.notes.push(format!(
-                "{role}: potential field ({} local minima escaped)",
-                path.escapes
-            ));
+            match field.attraction {
+                Attraction::Paper => {
+                    stats
+                        .counters
+                        .insert("apf_escapes".into(), path.escapes as f64);
+                    stats.notes.push(format!(
+                        "{role}: potential field ({} local minima escaped)",
+                        path.escapes
+                    ));
+                }
+                Attraction::Navigation => {
+                    stats
+                        .counters
+                        .insert("apf_wavefront_steps".into(), path.wavefront_steps as f64);
+                    stats.notes.push(format!(
+                        "{role}: potential field, navigation-function attraction ({} wavefront steps)",
+                        path.wavefront_steps
+                    ));
+                }
+            }
             Ok(path.cells)
         }
         Err(failure) => {

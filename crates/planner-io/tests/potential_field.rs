@@ -1,7 +1,8 @@
 //! The potential field on the substation paper's complex 20 x 20 map: its U trap is a local
-//! minimum of the plain field, and the virtual-traction escape leaves it.
+//! minimum of the plain field, and the virtual-traction escape leaves it (paper mode); the
+//! navigation-function attraction (the default) never enters it.
 
-use planner_core::field::{descend, descend_plain, ApfParams};
+use planner_core::field::{descend, descend_plain, ApfParams, Attraction};
 use planner_core::geometry::Point2;
 use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
 use planner_core::grid::raycast::path_is_free;
@@ -22,7 +23,10 @@ fn plain_apf_stalls_in_the_u_trap_and_the_escape_leaves_it() {
     // the U (closed at x = 9 and y = 7, open to the upper right).
     let start = info.world_to_cell(Point2::new(0.5, 0.5)).unwrap();
     let goal = info.world_to_cell(Point2::new(19.5, 19.5)).unwrap();
-    let params = ApfParams::default();
+    let params = ApfParams {
+        attraction: Attraction::Paper,
+        ..ApfParams::default()
+    };
     let stalled = descend_plain(&grid, &params, start, goal).unwrap_err();
     assert!(stalled.reason.contains("local minimum"), "{stalled:?}");
     // It stalls against the U's closed side: the goal is 19 cells up and right of the start, and
@@ -39,4 +43,26 @@ fn plain_apf_stalls_in_the_u_trap_and_the_escape_leaves_it() {
         escaped.escapes,
         escaped.cells.len()
     );
+}
+
+#[test]
+fn the_navigation_function_reaches_the_goal_past_the_u_trap_without_escapes() {
+    let grid = complex_map();
+    let info = *grid.info();
+    let start = info.world_to_cell(Point2::new(0.5, 0.5)).unwrap();
+    let goal = info.world_to_cell(Point2::new(19.5, 19.5)).unwrap();
+    let params = ApfParams::default();
+    assert_eq!(params.attraction, Attraction::Navigation);
+    let path = descend(&grid, &params, start, goal).unwrap();
+    assert_eq!(path.escapes, 0);
+    assert_eq!(*path.cells.first().unwrap(), start);
+    assert_eq!(*path.cells.last().unwrap(), goal);
+    let pts: Vec<_> = path.cells.iter().map(|c| c.center()).collect();
+    assert!(path_is_free(&grid, &pts));
+    // No cell twice, each step to a neighbour.
+    let mut seen = std::collections::HashSet::new();
+    assert!(path.cells.iter().all(|c| seen.insert(*c)));
+    assert!(path.cells.windows(2).all(|w| grid.adjacent(w[0], w[1])));
+    // Not a detour: within 1.5x the cell count of the straight diagonal (19 cells + a little).
+    assert!(path.cells.len() < 60, "{} cells", path.cells.len());
 }

@@ -26,6 +26,16 @@
 //! spent escaping (eq. 10's speed-up term `iota^n`, switched on by the stall, eq. 11) until it
 //! reaches the traction point and the goal's attraction takes over again. Escapes are bounded by a
 //! step budget; when it runs out the caller falls back to A* and says so.
+//!
+//! That is the papers' field (`apf.attraction: paper`, config/paper.yaml). At real scale its
+//! quadratic Euclidean attraction leaves local minima behind every wall, and on large maps the
+//! escape rarely finds its way (issue 12: every answer on the large-map queries was A*'s). The
+//! default, `attraction: navigation`, replaces eq. 4's `d_g`, the straight-line distance to the
+//! goal, by the wavefront distance through free space (Dijkstra from the goal over the same
+//! 8-neighbour moves): a navigation function, with no local minimum but the goal. The repulsion
+//! (eq. 1, eq. 9) is kept, so the path still keeps off the walls where it has room; where the
+//! repulsion alone would hold it (a narrow passage), the step follows the wavefront downhill
+//! instead (counted as `wavefront_steps`), so the descent always reaches the goal on its own.
 
 use crate::geometry::{Cell, Point2, Vector2};
 use crate::grid::inflation::PlanningGrid;
@@ -69,6 +79,20 @@ pub struct ApfParams {
     /// substation paper's EAPF (planner `eapf`, and the ant colony's force field) has none and
     /// switches it off. Default true.
     pub goal_distance_factor: bool,
+    /// What `d_g` of eq. 4 measures: `navigation` (default), the wavefront distance through
+    /// free space; `paper`, the straight-line distance with the traction-point escape.
+    pub attraction: Attraction,
+}
+
+/// The attraction's distance to the goal (see the module doc).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Attraction {
+    /// The papers' eq. 4: straight-line distance; local minima escaped by traction points.
+    Paper,
+    /// The wavefront distance through free space: a navigation function, no local minima.
+    #[default]
+    Navigation,
 }
 
 impl Default for ApfParams {
@@ -86,6 +110,7 @@ impl Default for ApfParams {
             sweep_step_deg: 5.0,
             step_budget_factor: 4.0,
             goal_distance_factor: true,
+            attraction: Attraction::Navigation,
         }
     }
 }
@@ -279,8 +304,10 @@ pub struct ApfFailure {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ApfPath {
     pub cells: Vec<Cell>,
-    /// Local minima met (each escaped by a traction point).
+    /// Local minima met (each escaped by a traction point; paper mode).
     pub escapes: usize,
+    /// Steps that followed the wavefront where the repulsion held the descent (navigation mode).
+    pub wavefront_steps: usize,
 }
 
 /// Descends the field from `start` to `goal` (both free cells), escaping local minima.
@@ -290,7 +317,120 @@ pub fn descend(
     start: Cell,
     goal: Cell,
 ) -> Result<ApfPath, ApfFailure> {
-    descend_with(grid, params, start, goal, true)
+    match params.attraction {
+        Attraction::Paper => descend_with(grid, params, start, goal, true),
+        Attraction::Navigation => descend_navigation(grid, params, start, goal),
+    }
+}
+
+/// The wavefront distance (m) from `goal` to every free cell up to `start` (Dijkstra over the
+/// grid's moves, stopped once `start` is settled): `INFINITY` beyond. `None` when `start` is not
+/// connected to `goal`.
+fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Vec<f64>> {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    let info = grid.info();
+    let res = grid.resolution();
+    let mut d = vec![f64::INFINITY; info.cell_count()];
+    let mut heap = BinaryHeap::new();
+    d[info.index(goal)] = 0.0;
+    // Distances are non-negative: their bit patterns order like the numbers.
+    heap.push(Reverse((0u64, info.index(goal))));
+    while let Some(Reverse((bits, i))) = heap.pop() {
+        let di = f64::from_bits(bits);
+        if di > d[i] {
+            continue;
+        }
+        let c = info.cell_at(i);
+        if c == start {
+            return Some(d);
+        }
+        for (_, n) in grid.moves(c) {
+            let step = if n.x != c.x && n.y != c.y {
+                std::f64::consts::SQRT_2
+            } else {
+                1.0
+            };
+            let j = info.index(n);
+            let dn = di + step * res;
+            if dn < d[j] {
+                d[j] = dn;
+                heap.push(Reverse((dn.to_bits(), j)));
+            }
+        }
+    }
+    None
+}
+
+/// Navigation mode: descends `0.5 epsilon D^2 + repulsion` with `D` the wavefront distance; where
+/// no unvisited neighbour is lower, steps to the neighbour of least `D` instead (always lower
+/// than here: the wavefront has no local minimum). A step back onto the path cuts the loop.
+fn descend_navigation(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    start: Cell,
+    goal: Cell,
+) -> Result<ApfPath, ApfFailure> {
+    let fail = |reason: &str, steps: usize| ApfFailure {
+        reason: reason.into(),
+        steps,
+        escapes: 0,
+    };
+    let Some(d) = wavefront(grid, start, goal) else {
+        return Err(fail("the goal is not reachable from the start", 0));
+    };
+    let info = grid.info();
+    let field = PotentialField::new(grid, params, goal.center());
+    let potential = |c: Cell| {
+        let dc = d[info.index(c)];
+        0.5 * params.attractive_gain * dc * dc
+            + field.repulsion(grid.clearance(c)) * field.goal_factor(c.center())
+    };
+    let budget = (params.step_budget_factor * (grid.width() + grid.height()) as f64) as usize;
+    let mut cells = vec![start];
+    let mut on_path = std::collections::HashMap::from([(start, 0usize)]);
+    let mut wavefront_steps = 0;
+    let mut steps = 0;
+    while *cells.last().expect("non-empty") != goal {
+        steps += 1;
+        if steps > budget {
+            return Err(fail("the step budget ran out", steps));
+        }
+        let cur = *cells.last().expect("non-empty");
+        let here = potential(cur);
+        let downhill = admissible_moves(grid, cur)
+            .filter(|n| d[info.index(*n)].is_finite() && !on_path.contains_key(n))
+            .map(|n| (potential(n), n))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
+            .filter(|(p, _)| *p < here);
+        let next = match downhill {
+            Some((_, n)) => n,
+            None => {
+                wavefront_steps += 1;
+                admissible_moves(grid, cur)
+                    .min_by(|a, b| {
+                        d[info.index(*a)]
+                            .total_cmp(&d[info.index(*b)])
+                            .then_with(|| a.cmp(b))
+                    })
+                    .expect("a settled cell other than the goal has a lower neighbour")
+            }
+        };
+        if let Some(&k) = on_path.get(&next) {
+            // Back onto the path: cut the loop.
+            for c in cells.drain(k + 1..) {
+                on_path.remove(&c);
+            }
+        } else {
+            on_path.insert(next, cells.len());
+            cells.push(next);
+        }
+    }
+    Ok(ApfPath {
+        cells,
+        escapes: 0,
+        wavefront_steps,
+    })
 }
 
 /// The same, with escapes switched off: the plain APF that stalls in a U trap (for comparison
@@ -385,7 +525,11 @@ fn descend_with(
             }
         }
     }
-    Ok(ApfPath { cells, escapes })
+    Ok(ApfPath {
+        cells,
+        escapes,
+        wavefront_steps: 0,
+    })
 }
 
 /// The 8-neighbour moves A* allows from a cell (the one move rule of [`crate::grid::moves`]).

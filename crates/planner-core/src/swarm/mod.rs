@@ -823,6 +823,8 @@ mod tests {
                 ..PlannerConfig::default()
             };
             config.swarm.safety_weight = safety;
+            // Weight 0 with the paper's field is the paper's planner.
+            config.apf.attraction = crate::field::Attraction::Paper;
             let planner = build(&config).unwrap();
             let mut r = rng(3);
             let plan = solve(
