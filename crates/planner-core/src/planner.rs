@@ -184,8 +184,9 @@ pub enum PlanError {
 /// grid, its clearance transform, the planning grid) is the node's and is not counted.
 pub const DEFAULT_MAX_PLAN_BYTES: u64 = 2 << 30;
 
-/// A*'s tables per cell (`search::astar`): g (8 B) and parent (4 B) of every cell of the
-/// padded grid and, at most about one open-list entry (16 B) per cell, rounded up to 32 B.
+/// A*'s tables per cell (`search::astar`): g (8 B), parent (4 B) and a seen flag (1 B) of every
+/// cell of the padded grid and, at most about one open-list entry (16 B) per cell, rounded up
+/// to 32 B (the tables are zero pages until a cell is reached, so this bounds, not predicts).
 /// Every planner but the bare potential field may run A* (as its seed or its fallback).
 pub const ASTAR_BYTES_PER_CELL: u64 = 32;
 

@@ -323,27 +323,48 @@ pub fn descend(
     }
 }
 
-/// The wavefront distance (m) from `goal` to every free cell up to `start` (Dijkstra over the
-/// grid's moves, stopped once `start` is settled): `INFINITY` beyond. `None` when `start` is not
-/// connected to `goal`.
-fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Vec<f64>> {
+/// The wavefront distance (m) from `goal` to the free cells up to `start` (Dijkstra over the
+/// grid's moves, stopped once `start` is settled).
+struct Wavefront {
+    d: Vec<f64>,
+    /// Whether `d[i]` is set. Both tables start all-zero (untouched zero pages): the search pays
+    /// for the cells it reaches, not for the map.
+    reached: Vec<bool>,
+}
+
+impl Wavefront {
+    /// The distance of cell index `i`, infinite where the search did not reach.
+    fn at(&self, i: usize) -> f64 {
+        if self.reached[i] {
+            self.d[i]
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The [`Wavefront`] from `goal`; `None` when `start` is not connected to `goal`.
+fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Wavefront> {
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
     let info = grid.info();
     let res = grid.resolution();
-    let mut d = vec![f64::INFINITY; info.cell_count()];
+    let mut w = Wavefront {
+        d: vec![0.0; info.cell_count()],
+        reached: vec![false; info.cell_count()],
+    };
+    w.reached[info.index(goal)] = true;
     let mut heap = BinaryHeap::new();
-    d[info.index(goal)] = 0.0;
     // Distances are non-negative: their bit patterns order like the numbers.
     heap.push(Reverse((0u64, info.index(goal))));
     while let Some(Reverse((bits, i))) = heap.pop() {
         let di = f64::from_bits(bits);
-        if di > d[i] {
+        if di > w.d[i] {
             continue;
         }
         let c = info.cell_at(i);
         if c == start {
-            return Some(d);
+            return Some(w);
         }
         for (_, n) in grid.moves(c) {
             let step = if n.x != c.x && n.y != c.y {
@@ -353,8 +374,9 @@ fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Vec<f64>> {
             };
             let j = info.index(n);
             let dn = di + step * res;
-            if dn < d[j] {
-                d[j] = dn;
+            if !w.reached[j] || dn < w.d[j] {
+                w.d[j] = dn;
+                w.reached[j] = true;
                 heap.push(Reverse((dn.to_bits(), j)));
             }
         }
@@ -382,7 +404,7 @@ fn descend_navigation(
     let info = grid.info();
     let field = PotentialField::new(grid, params, goal.center());
     let potential = |c: Cell| {
-        let dc = d[info.index(c)];
+        let dc = d.at(info.index(c));
         0.5 * params.attractive_gain * dc * dc
             + field.repulsion(grid.clearance(c)) * field.goal_factor(c.center())
     };
@@ -399,7 +421,7 @@ fn descend_navigation(
         let cur = *cells.last().expect("non-empty");
         let here = potential(cur);
         let downhill = admissible_moves(grid, cur)
-            .filter(|n| d[info.index(*n)].is_finite() && !on_path.contains_key(n))
+            .filter(|n| d.at(info.index(*n)).is_finite() && !on_path.contains_key(n))
             .map(|n| (potential(n), n))
             .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
             .filter(|(p, _)| *p < here);
@@ -409,8 +431,8 @@ fn descend_navigation(
                 wavefront_steps += 1;
                 admissible_moves(grid, cur)
                     .min_by(|a, b| {
-                        d[info.index(*a)]
-                            .total_cmp(&d[info.index(*b)])
+                        d.at(info.index(*a))
+                            .total_cmp(&d.at(info.index(*b)))
                             .then_with(|| a.cmp(b))
                     })
                     .expect("a settled cell other than the goal has a lower neighbour")

@@ -103,6 +103,20 @@ impl InflationConfig {
     }
 }
 
+/// The memo of [`PlanningGrid::cost`]: a clone starts empty (it fills again as asked).
+#[derive(Debug, Default)]
+struct CostMemo(std::sync::OnceLock<Vec<std::sync::atomic::AtomicU8>>);
+
+impl Clone for CostMemo {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+/// A cell whose model cost is not computed yet (the model never gives 255, costmap_2d's
+/// NO_INFORMATION).
+const NOT_YET: u8 = 255;
+
 /// The grid every planner searches: which cells the robot's centre may occupy, and how far each
 /// cell is from the nearest obstacle. Cells outside the map are blocked.
 #[derive(Clone, Debug)]
@@ -117,10 +131,12 @@ pub struct PlanningGrid {
     costs: CostModel,
     /// Costs given cell by cell (a costmap received as is), instead of the model's.
     given_costs: Option<Vec<u8>>,
-    /// The model's cost of every cell, computed on the first [`PlanningGrid::cost`] call (an
-    /// exponential and a square root per cell: the swarms' safety objective asks for thousands
-    /// of cells per candidate). 1 B per cell; never built when nobody weighs costs.
-    model_costs: std::sync::OnceLock<Vec<u8>>,
+    /// The model's cost of each cell, computed on its first [`PlanningGrid::cost`] call (an
+    /// exponential and a square root) and kept: the safety objective and the cost terms ask for
+    /// the same cells thousands of times per plan. [`NOT_YET`] until then; 1 B per cell,
+    /// allocated on the first call. Atomic, because plans share the grid across threads (a
+    /// race only computes the same value twice).
+    model_costs: CostMemo,
     /// Free cells, with a one-cell blocked border (row stride `width + 2`): lets the graph
     /// searches step to any 8-neighbour without a bounds check.
     padded_free: Vec<bool>,
@@ -175,7 +191,7 @@ impl PlanningGrid {
     /// The same grid with another cost model.
     pub fn with_costs(mut self, costs: CostModel) -> Self {
         self.costs = costs;
-        self.model_costs = std::sync::OnceLock::new();
+        self.model_costs = CostMemo::default();
         self
     }
 
@@ -215,7 +231,7 @@ impl PlanningGrid {
                 cost_scaling_factor: default_cost_scaling_factor(),
             },
             given_costs: None,
-            model_costs: std::sync::OnceLock::new(),
+            model_costs: CostMemo::default(),
             padded_free,
         }
     }
@@ -262,15 +278,24 @@ impl PlanningGrid {
         if !self.info.contains(c) {
             return LETHAL;
         }
-        let table = match &self.given_costs {
-            Some(given) => given,
-            None => self.model_costs.get_or_init(|| {
-                (0..self.info.cell_count())
-                    .map(|i| self.model_cost(self.info.cell_at(i)))
-                    .collect()
-            }),
-        };
-        table[self.info.index(c)]
+        use std::sync::atomic::{AtomicU8, Ordering};
+        let i = self.info.index(c);
+        if let Some(given) = &self.given_costs {
+            return given[i];
+        }
+        let memo = self.model_costs.0.get_or_init(|| {
+            (0..self.info.cell_count())
+                .map(|_| AtomicU8::new(NOT_YET))
+                .collect()
+        });
+        match memo[i].load(Ordering::Relaxed) {
+            NOT_YET => {
+                let v = self.model_cost(c);
+                memo[i].store(v, Ordering::Relaxed);
+                v
+            }
+            v => v,
+        }
     }
 
     /// [`PlanningGrid::cost`] of a cell inside the map by the cost model.

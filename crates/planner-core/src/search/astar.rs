@@ -148,11 +148,16 @@ fn search(
     let unpadded = |i: usize| Cell::new((i % stride) as i32 - 1, (i / stride) as i32 - 1);
     let s = stride as isize;
     let offsets: [isize; 8] = NEIGHBOURS_8.map(|(dx, dy)| dx as isize + dy as isize * s);
-    let mut g = vec![f64::INFINITY; free.len()];
-    let mut parent = vec![u32::MAX; free.len()];
+    // All-zero tables, which the allocator hands out as untouched zero pages: a search pays for
+    // the cells it reaches, not for the map (a short query on a 4 M-cell map used to spend
+    // most of its time filling g with infinity). `seen[j]` says g[j] is set; unseen is infinite.
+    let mut g = vec![0.0f64; free.len()];
+    let mut seen = vec![false; free.len()];
+    let mut parent = vec![0u32; free.len()];
     let mut open = BinaryHeap::new();
     let (si, gi) = (padded(start), padded(goal));
     g[si] = 0.0;
+    seen[si] = true;
     open.push(Open::new(octile(start, goal), 0.0, si));
     let mut stats = PlanStats::default();
     while let Some(top) = open.pop() {
@@ -184,9 +189,10 @@ fn search(
                 continue;
             }
             let ng = gc + step(c.offset(dx, dy), dx, dy);
-            if ng < g[j] {
+            if !seen[j] || ng < g[j] {
                 stats.evaluations += 1;
                 g[j] = ng;
+                seen[j] = true;
                 parent[j] = index;
                 open.push(Open::new(ng + octile(c.offset(dx, dy), goal), ng, j));
             }

@@ -113,6 +113,17 @@ impl Encoding {
         }
     }
 
+    /// Narrows every dimension's range to `centre[d] +- half_width` (grid units), within the range
+    /// it had: a corridor around the seed, so that the search (and its steps, which are shares
+    /// of each range) scales with the query rather than with the map.
+    pub fn narrow(&mut self, centre: &[f64], half_width: f64) {
+        let (Encoding::Lateral { lo, hi, .. } | Encoding::General { lo, hi, .. }) = self;
+        for ((l, h), &c) in lo.iter_mut().zip(hi.iter_mut()).zip(centre) {
+            *l = l.max(c - half_width);
+            *h = h.min(c + half_width);
+        }
+    }
+
     /// The polyline `[start, M_1, ..., M_i, goal]` (grid coordinates) of a vector, into `out`.
     pub fn decode_into(&self, x: &[f64], out: &mut Vec<Point2>) {
         out.clear();

@@ -121,6 +121,11 @@ pub struct SwarmParams {
     pub safety_seed_multiplier: f64,
     /// Initial spread around the seed, as a share of each dimension's range. Default 0.05.
     pub init_spread: f64,
+    /// Beyond the paper: each dimension ranges over a corridor around the seed, this share of
+    /// the start-goal distance (at least 1 m) on each side, instead of the whole map (whose
+    /// extent made the search, its steps and its time grow with the map, not the query:
+    /// issue 12). Default 0.5; 0 is the paper's whole-map range (config/paper.yaml).
+    pub corridor: f64,
     /// Path encoding: auto (default) or general.
     pub encoding: EncodingChoice,
 }
@@ -149,6 +154,7 @@ impl Default for SwarmParams {
             safety_weight: 0.3,
             safety_seed_multiplier: 3.0,
             init_spread: 0.05,
+            corridor: 0.5,
             encoding: EncodingChoice::Auto,
         }
     }
@@ -189,6 +195,7 @@ impl SwarmParams {
                 ("swarm.mopso_inertia", self.mopso_inertia),
                 ("swarm.mopso_acceleration", self.mopso_acceleration),
                 ("swarm.safety_seed_multiplier", self.safety_seed_multiplier),
+                ("swarm.corridor", self.corridor),
             ],
         )
     }
@@ -320,6 +327,19 @@ pub(crate) fn start(
     start_stats
         .notes
         .push(format!("encoding: {}, dimension {}", enc.name(), enc.dim()));
+    let mut enc = enc;
+    if params.corridor > 0.0 {
+        // Beyond the paper: the search space is a corridor around the seed, as wide on each side
+        // as `corridor` times the start-goal distance (at least 1 m), not the whole map.
+        let grid = problem.grid;
+        let span = (problem.goal_point - problem.start_point).norm();
+        let half = (params.corridor * span).max(1.0 / grid.resolution());
+        enc.narrow(&seed_x, half);
+        start_stats.notes.push(format!(
+            "search corridor: +-{:.2} m around the seed",
+            half * grid.resolution()
+        ));
+    }
     Ok((enc, seed_x, start_stats))
 }
 
