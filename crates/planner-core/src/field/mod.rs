@@ -384,22 +384,25 @@ fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Wavefront> 
     None
 }
 
-/// Navigation mode: descends `0.5 epsilon D^2 + repulsion` with `D` the wavefront distance; where
-/// no unvisited neighbour is lower, steps to the neighbour of least `D` instead (always lower
-/// than here: the wavefront has no local minimum). A step back onto the path cuts the loop.
+/// Navigation mode: each step goes to the neighbour of least potential `0.5 epsilon D^2 +
+/// repulsion` (`D` the wavefront distance) among those strictly closer to the goal by the
+/// wavefront. `D` falls at every step, so the descent cannot loop or stall and reaches the goal
+/// in at most as many steps as there are cells closer than the start; among the downhill moves
+/// (up to five) the repulsion picks the one away from the walls. Where the field's own steepest
+/// move would have gone uphill in `D` (the repulsion pushing back, the papers' local minimum),
+/// the step is counted in `wavefront_steps`.
 fn descend_navigation(
     grid: &PlanningGrid,
     params: &ApfParams,
     start: Cell,
     goal: Cell,
 ) -> Result<ApfPath, ApfFailure> {
-    let fail = |reason: &str, steps: usize| ApfFailure {
-        reason: reason.into(),
-        steps,
-        escapes: 0,
-    };
     let Some(d) = wavefront(grid, start, goal) else {
-        return Err(fail("the goal is not reachable from the start", 0));
+        return Err(ApfFailure {
+            reason: "the goal is not reachable from the start".into(),
+            steps: 0,
+            escapes: 0,
+        });
     };
     let info = grid.info();
     let field = PotentialField::new(grid, params, goal.center());
@@ -408,45 +411,26 @@ fn descend_navigation(
         0.5 * params.attractive_gain * dc * dc
             + field.repulsion(grid.clearance(c)) * field.goal_factor(c.center())
     };
-    let budget = (params.step_budget_factor * (grid.width() + grid.height()) as f64) as usize;
     let mut cells = vec![start];
-    let mut on_path = std::collections::HashMap::from([(start, 0usize)]);
     let mut wavefront_steps = 0;
-    let mut steps = 0;
-    while *cells.last().expect("non-empty") != goal {
-        steps += 1;
-        if steps > budget {
-            return Err(fail("the step budget ran out", steps));
-        }
-        let cur = *cells.last().expect("non-empty");
-        let here = potential(cur);
-        let downhill = admissible_moves(grid, cur)
-            .filter(|n| d.at(info.index(*n)).is_finite() && !on_path.contains_key(n))
-            .map(|n| (potential(n), n))
-            .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
-            .filter(|(p, _)| *p < here);
-        let next = match downhill {
-            Some((_, n)) => n,
-            None => {
-                wavefront_steps += 1;
-                admissible_moves(grid, cur)
-                    .min_by(|a, b| {
-                        d.at(info.index(*a))
-                            .total_cmp(&d.at(info.index(*b)))
-                            .then_with(|| a.cmp(b))
-                    })
-                    .expect("a settled cell other than the goal has a lower neighbour")
-            }
+    let mut cur = start;
+    while cur != goal {
+        let here = d.at(info.index(cur));
+        let least = |it: &mut dyn Iterator<Item = Cell>| {
+            it.map(|n| (potential(n), n))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
         };
-        if let Some(&k) = on_path.get(&next) {
-            // Back onto the path: cut the loop.
-            for c in cells.drain(k + 1..) {
-                on_path.remove(&c);
-            }
-        } else {
-            on_path.insert(next, cells.len());
-            cells.push(next);
+        let next = least(
+            &mut admissible_moves(grid, cur).filter(|n| d.at(info.index(*n)) < here),
+        )
+        .expect("a reached cell other than the goal has a neighbour closer to it")
+        .1;
+        let steepest = least(&mut admissible_moves(grid, cur));
+        if steepest.is_some_and(|(_, n)| n != next) {
+            wavefront_steps += 1;
         }
+        cells.push(next);
+        cur = next;
     }
     Ok(ApfPath {
         cells,
