@@ -153,6 +153,7 @@ pub fn build(config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
         Box::new(GaPlanner {
             variant,
             params: config.genetic.clone(),
+            apf: apf.clone(),
         })
     };
     Ok(match config.planner {

@@ -420,11 +420,9 @@ fn descend_navigation(
             it.map(|n| (potential(n), n))
                 .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
         };
-        let next = least(
-            &mut admissible_moves(grid, cur).filter(|n| d.at(info.index(*n)) < here),
-        )
-        .expect("a reached cell other than the goal has a neighbour closer to it")
-        .1;
+        let next = least(&mut admissible_moves(grid, cur).filter(|n| d.at(info.index(*n)) < here))
+            .expect("a reached cell other than the goal has a neighbour closer to it")
+            .1;
         let steepest = least(&mut admissible_moves(grid, cur));
         if steepest.is_some_and(|(_, n)| n != next) {
             wavefront_steps += 1;

@@ -69,6 +69,15 @@ pub struct GaParams {
     /// Fitness weight of the graded costmap cost along the path (per metre at cost 252).
     /// Default 1; 0 is the paper's fitness.
     pub weight_cost: f64,
+    /// Beyond the paper: the potential field's path (A*'s where the field cannot reach the goal)
+    /// is the first individual, so the population is never empty where a path exists (on large
+    /// maps the random initial paths often cannot be completed within the insertion budget:
+    /// issue 12). Default true; false is the paper's random population (config/paper.yaml).
+    pub seeded: bool,
+    /// Beyond the paper: initial individuals pass through a random cell of the box around
+    /// start and goal widened by this share of their distance (at least 1 m) on each side,
+    /// instead of any free cell of the map. Default 0.5; 0 is the paper's (config/paper.yaml).
+    pub corridor: f64,
     /// Attempts per wanted individual before the initial population is accepted as it is.
     /// Default 10.
     pub init_attempts: usize,
@@ -89,6 +98,8 @@ impl Default for GaParams {
             weight_safety: 0.5,
             weight_energy: 0.5,
             weight_cost: 1.0,
+            seeded: true,
+            corridor: 0.5,
             init_attempts: 10,
             insertion_budget_factor: 4.0,
         }
@@ -120,6 +131,7 @@ impl GaParams {
                 ("genetic.weight_safety", self.weight_safety),
                 ("genetic.weight_energy", self.weight_energy),
                 ("genetic.weight_cost", self.weight_cost),
+                ("genetic.corridor", self.corridor),
                 (
                     "genetic.insertion_budget_factor",
                     self.insertion_budget_factor,
@@ -149,6 +161,8 @@ impl GaVariant {
 pub struct GaPlanner {
     pub variant: GaVariant,
     pub params: GaParams,
+    /// The potential field whose path seeds the population when `params.seeded`.
+    pub apf: crate::field::ApfParams,
 }
 
 /// The three terms of a path's fitness.
@@ -425,21 +439,60 @@ impl Population for Generations<'_> {
         let grid = self.problem.grid;
         let p = &self.planner.params;
         let (s, g) = (self.problem.start, self.problem.goal);
-        let free: Vec<Cell> = {
+        // The random intermediate cell of each initial individual (4.1): any free cell of the
+        // map (the paper), or, with `corridor`, one of the box around start and goal widened by
+        // `corridor` x their distance (at least 1 m) on each side, drawn by rejection, so that
+        // initial paths on a large map are not map-wide detours that the insertion budget
+        // cannot complete (issue 12: 'no initial path could be completed').
+        let free: Vec<Cell> = if p.corridor > 0.0 {
+            Vec::new()
+        } else {
             let info = grid.info();
             (0..info.cell_count())
                 .map(|i| info.cell_at(i))
                 .filter(|&c| grid.is_free(c) && c != s && c != g)
                 .collect()
         };
+        let corridor = {
+            let half = (p.corridor * ((g.x - s.x) as f64).hypot((g.y - s.y) as f64))
+                .max(1.0 / grid.resolution())
+                .ceil() as i32;
+            let (w, h) = (grid.width() as i32, grid.height() as i32);
+            (
+                (s.x.min(g.x) - half).max(0),
+                (s.y.min(g.y) - half).max(0),
+                (s.x.max(g.x) + half).min(w - 1),
+                (s.y.max(g.y) + half).min(h - 1),
+            )
+        };
+        let draw = |rng: &mut crate::planner::PlannerRng| -> Option<Cell> {
+            if p.corridor <= 0.0 {
+                return free.choose(rng).copied();
+            }
+            let (x0, y0, x1, y1) = corridor;
+            (0..64).find_map(|_| {
+                let c = Cell::new(rng.random_range(x0..=x1), rng.random_range(y0..=y1));
+                (grid.is_free(c) && c != s && c != g).then_some(c)
+            })
+        };
         let mut pop: Vec<Vec<Cell>> = Vec::with_capacity(p.population);
+        if p.seeded {
+            let seed = crate::seed::field_or_astar(
+                &self.problem,
+                &self.planner.apf,
+                ctx,
+                stats,
+                "first individual",
+            )?;
+            pop.push(seed);
+        }
         let mut discarded = 0u64;
         for _ in 0..p.population * p.init_attempts {
             if pop.len() == p.population {
                 break;
             }
-            let genes = match free.choose(ctx.rng) {
-                Some(&r) => vec![s, r, g],
+            let genes = match draw(ctx.rng) {
+                Some(r) => vec![s, r, g],
                 None => vec![s, g],
             };
             match connect(grid, genes, self.median, self.insertion_budget, ctx.rng) {
@@ -711,6 +764,7 @@ mod tests {
             let planner = GaPlanner {
                 variant,
                 params: GaParams::default(),
+                apf: crate::field::ApfParams::default(),
             };
             let run = |seed| {
                 let mut r = rng(seed);
