@@ -1,8 +1,10 @@
 //! SVG pictures of a map and paths, for people to check by eye.
 //!
 //! The map is one embedded PNG (one pixel per cell: obstacles black, unknown grey, the inflated
-//! band pink, free white), so even a 1000 x 1000 map stays a small file; paths are polylines on
-//! top, in grid coordinates with the y axis flipped so north is up.
+//! band pink, free cells white shading to orange as their costmap cost rises towards 252), so
+//! even a 1000 x 1000 map stays a small file; paths are polylines on top, in grid coordinates
+//! with the y axis flipped so north is up. A Pareto front is drawn beside it: length against
+//! turning, and with a third objective (safety) its three 2-D projections.
 
 use base64::Engine;
 use planner_core::config::PlannerConfig;
@@ -26,11 +28,11 @@ pub enum Layer {
         start: Point2,
         goal: Point2,
     },
-    /// A Pareto front (f1 length in m, f2 turning in rad) and the chosen member, drawn as a
-    /// scatter plot beside the map.
+    /// A Pareto front (f1 length in m, f2 turning in rad, f3 safety cost in m; f3 all 0 when
+    /// safety is off) and the chosen member, drawn as scatter plots beside the map.
     Pareto {
-        front: Vec<(f64, f64)>,
-        chosen: (f64, f64),
+        front: Vec<[f64; 3]>,
+        chosen: [f64; 3],
     },
     /// Numbered stops (a patrol route's points): a labelled disc with a tick towards its heading,
     /// or a grey cross for a stop that was skipped.
@@ -72,8 +74,19 @@ fn escape(text: &str) -> String {
 /// Side of the square Pareto panel, in pixels.
 const PANEL: f64 = 450.0;
 
-/// The scatter plot of a front, as a self-contained `<svg>` at `x` pixels.
-fn pareto_panel(front: &[(f64, f64)], chosen: (f64, f64), x: f64) -> String {
+/// The objectives' axis labels.
+const AXES: [&str; 3] = [
+    "f1 path length (m)",
+    "f2 total turning (rad)",
+    "f3 safety cost (m at cost 252)",
+];
+
+/// The scatter plot of a front's objectives `a` against `b`, as a self-contained `<svg>` at `x`
+/// pixels.
+fn pareto_panel(front: &[[f64; 3]], chosen: [f64; 3], (a, b): (usize, usize), x: f64) -> String {
+    let front: Vec<(f64, f64)> = front.iter().map(|p| (p[a], p[b])).collect();
+    let chosen = (chosen[a], chosen[b]);
+    let (xa, ya) = (AXES[a], AXES[b]);
     let (margin, size) = (60.0, PANEL - 80.0);
     let span = |v: &mut dyn Iterator<Item = f64>| {
         let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
@@ -95,17 +108,17 @@ fn pareto_panel(front: &[(f64, f64)], chosen: (f64, f64), x: f64) -> String {
         s,
         r##"<rect x="{margin}" y="20" width="{size}" height="{size}" fill="none" stroke="#444"/>"##
     );
-    for &(f1, f2) in front {
+    for &(f1, f2) in &front {
         let _ = writeln!(
             s,
-            r##"<circle cx="{:.2}" cy="{:.2}" r="3" fill="#1f77b4"><title>{f1:.3} m, {f2:.3} rad</title></circle>"##,
+            r##"<circle cx="{:.2}" cy="{:.2}" r="3" fill="#1f77b4"><title>{f1:.3}, {f2:.3}</title></circle>"##,
             px(f1),
             py(f2)
         );
     }
     let _ = writeln!(
         s,
-        r##"<circle cx="{:.2}" cy="{:.2}" r="6" fill="none" stroke="#d62728" stroke-width="2"><title>chosen (eq. 19-21): {:.3} m, {:.3} rad</title></circle>"##,
+        r##"<circle cx="{:.2}" cy="{:.2}" r="6" fill="none" stroke="#d62728" stroke-width="2"><title>chosen (eq. 19-21): {:.3}, {:.3}</title></circle>"##,
         px(chosen.0),
         py(chosen.1),
         chosen.0,
@@ -113,13 +126,13 @@ fn pareto_panel(front: &[(f64, f64)], chosen: (f64, f64), x: f64) -> String {
     );
     let _ = writeln!(
         s,
-        r#"<text x="{:.0}" y="{:.0}" text-anchor="middle">f1 path length (m): {x0:.2} .. {x1:.2}</text>"#,
+        r#"<text x="{:.0}" y="{:.0}" text-anchor="middle">{xa}: {x0:.2} .. {x1:.2}</text>"#,
         margin + size / 2.0,
         size + 45.0
     );
     let _ = writeln!(
         s,
-        r#"<text x="14" y="{:.0}" transform="rotate(-90 14 {:.0})" text-anchor="middle">f2 total turning (rad): {y0:.2} .. {y1:.2}</text>"#,
+        r#"<text x="14" y="{:.0}" transform="rotate(-90 14 {:.0})" text-anchor="middle">{ya}: {y0:.2} .. {y1:.2}</text>"#,
         20.0 + size / 2.0,
         20.0 + size / 2.0
     );
@@ -165,7 +178,10 @@ impl<'a> Drawing<'a> {
             } else if !self.grid.is_free(c) {
                 [244, 194, 194]
             } else {
-                [255, 255, 255]
+                // White at cost 0 shading to orange at 252: the gradient the planners weigh.
+                let t = self.grid.cost(c) as f64 / 252.0;
+                let mix = |to: f64| (255.0 - t * (255.0 - to)).round() as u8;
+                [255, mix(190.0), mix(110.0)]
             })
         });
         let mut png = Vec::new();
@@ -301,7 +317,8 @@ impl<'a> Drawing<'a> {
         (s, w * scale)
     }
 
-    /// The whole picture: the map, and the Pareto panel beside it when there is a front.
+    /// The whole picture: the map, and the Pareto panels beside it when there is a front (one,
+    /// length against turning; three projections when the front has a third objective).
     pub fn to_svg(&self) -> String {
         let (map, map_width) = self.map_svg();
         let Some((front, chosen)) = self.layers.iter().find_map(|l| match l {
@@ -310,6 +327,16 @@ impl<'a> Drawing<'a> {
         }) else {
             return map;
         };
+        let pairs: &[(usize, usize)] = if front.iter().any(|p| p[2] > 0.0) {
+            &[(0, 1), (0, 2), (1, 2)]
+        } else {
+            &[(0, 1)]
+        };
+        let panels: String = pairs
+            .iter()
+            .enumerate()
+            .map(|(k, &pair)| pareto_panel(front, chosen, pair, map_width + k as f64 * PANEL))
+            .collect();
         let height = map
             .split("height=\"")
             .nth(1)
@@ -319,9 +346,9 @@ impl<'a> Drawing<'a> {
             .max(PANEL);
         format!(
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{:.0}\" height=\"{height:.0}\">\n{}{}</svg>\n",
-            map_width + PANEL,
+            map_width + PANEL * pairs.len() as f64,
             map.replacen("<svg ", "<svg x=\"0\" y=\"0\" ", 1),
-            pareto_panel(front, chosen, map_width)
+            panels
         )
     }
 }

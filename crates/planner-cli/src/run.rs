@@ -163,14 +163,23 @@ pub fn plan_command(
         drawing.add(Layer::path(plan.planner.as_str(), &plan.waypoints));
         drawing.add(Layer::endpoints(query.start, plan.goal));
         if !plan.pareto.is_empty() {
-            drawing.add(Layer::Pareto {
-                front: plan
-                    .pareto
-                    .iter()
-                    .map(|m| (m.f1_length_m, m.f2_turning_rad))
-                    .collect(),
-                chosen: (plan.metrics.length_m, plan.metrics.turning_rad),
-            });
+            let front: Vec<[f64; 3]> = plan
+                .pareto
+                .iter()
+                .map(|m| [m.f1_length_m, m.f2_turning_rad, m.f3_safety])
+                .collect();
+            // The chosen member: the front's point nearest the plan's length and turning (its
+            // safety value is the objective's, not the metric's).
+            let (l, t) = (plan.metrics.length_m, plan.metrics.turning_rad);
+            let chosen = front
+                .iter()
+                .copied()
+                .min_by(|a, b| {
+                    ((a[0] - l).abs() + (a[1] - t).abs())
+                        .total_cmp(&((b[0] - l).abs() + (b[1] - t).abs()))
+                })
+                .unwrap_or([l, t, 0.0]);
+            drawing.add(Layer::Pareto { front, chosen });
         }
         std::fs::write(svg, drawing.to_svg())
             .with_context(|| format!("writing {}", svg.display()))?;
