@@ -10,6 +10,7 @@ use crate::params::ParamError;
 use crate::planner::Planner;
 use crate::search::any_angle::AnyAngle;
 use crate::search::astar::AStar;
+use crate::search::theta_star::ThetaStar;
 use crate::swarm::nsga2::Nsga2Planner;
 use crate::swarm::{SwarmPlanner, Variant};
 use serde::{Deserialize, Serialize};
@@ -44,11 +45,12 @@ pub enum PlannerName {
     Imga,
     Ga,
     Nsga2,
+    ThetaStar,
 }
 
 impl PlannerName {
     /// Every planner, in the order tables list them.
-    pub const ALL: [PlannerName; 16] = [
+    pub const ALL: [PlannerName; 17] = [
         PlannerName::Astar,
         PlannerName::AnyAngle,
         PlannerName::Apf,
@@ -65,6 +67,7 @@ impl PlannerName {
         PlannerName::Imga,
         PlannerName::Ga,
         PlannerName::Nsga2,
+        PlannerName::ThetaStar,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -85,6 +88,7 @@ impl PlannerName {
             PlannerName::Imga => "imga",
             PlannerName::Ga => "ga",
             PlannerName::Nsga2 => "nsga2",
+            PlannerName::ThetaStar => "theta_star",
         }
     }
 
@@ -161,6 +165,9 @@ pub fn build(config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
             cost_travel_multiplier: config.search.cost_travel_multiplier,
         }),
         PlannerName::AnyAngle => Box::new(AnyAngle),
+        PlannerName::ThetaStar => Box::new(ThetaStar {
+            cost_travel_multiplier: config.search.cost_travel_multiplier,
+        }),
         PlannerName::Apf => Box::new(ApfPlanner {
             params: apf.clone(),
             substation_field: false,

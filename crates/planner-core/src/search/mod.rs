@@ -8,6 +8,7 @@
 
 pub mod any_angle;
 pub mod astar;
+pub mod theta_star;
 
 use crate::params::{check, ParamError, Range};
 use serde::{Deserialize, Serialize};
@@ -16,9 +17,10 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SearchParams {
-    /// `astar`'s weight on the costmap cost (Nav2's Smac 2D `cost_travel_multiplier`): a step
-    /// into a cell of cost `c` costs its length times `1 + multiplier * c / 252`. 0 (default):
-    /// pure length, the papers' baseline; Nav2's default is 2.0.
+    /// `astar`'s and `theta_star`'s weight on the costmap cost (Nav2's Smac 2D
+    /// `cost_travel_multiplier`): a step into a cell of cost `c` (for `theta_star` a segment
+    /// over cells of mean cost `c`) costs its length times `1 + multiplier * c / 252`. 0
+    /// (default): pure length, the papers' baseline; Nav2's default is 2.0.
     pub cost_travel_multiplier: f64,
 }
 
