@@ -25,8 +25,8 @@ pub struct RouteArgs {
     /// Instead of a route file: draw this many random routes on the map (`--route-points` points
     /// each, connected to a random start, no dwell) and report how much time the optimised order
     /// saves against the order drawn, per route and on average.
-    #[arg(long, conflicts_with = "points")]
-    random_routes: Option<usize>,
+    #[arg(long, conflicts_with = "points", value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    random_routes: Option<u32>,
     /// Points per random route.
     #[arg(long, default_value_t = 10, requires = "random_routes")]
     route_points: usize,
@@ -129,7 +129,7 @@ fn random_routes(args: &RouteArgs, n: usize) -> Result<()> {
 
 pub fn run(args: &RouteArgs) -> Result<()> {
     if let Some(n) = args.random_routes {
-        return random_routes(args, n);
+        return random_routes(args, n as usize);
     }
     let config = load_config(args.common.config.as_deref())?;
     let seed = config.seed.unwrap_or(0);

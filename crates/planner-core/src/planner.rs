@@ -264,7 +264,6 @@ pub fn solve(
     ctx: &mut PlanContext<'_>,
 ) -> Result<Plan, PlanError> {
     let problem = validate_with(grid, query, options.start_tolerance)?;
-    check_memory(planner, grid, options.max_plan_bytes)?;
     let mut raw = if problem.start == problem.goal {
         // The goal lies in the start's own cell: the straight segment inside one free cell is
         // the path (Nav2's planners answer such a request with a one- or two-pose path). No
@@ -274,6 +273,8 @@ pub fn solve(
             ..RawPlan::default()
         }
     } else {
+        // Only a plan that runs a planner allocates its working tables.
+        check_memory(planner, grid, options.max_plan_bytes)?;
         planner.plan(&problem, ctx)?
     };
     raw.stats.termination.get_or_insert(Termination::Completed);

@@ -4,7 +4,7 @@
 //! 2: the APF path is the first global best), the improved colony takes it as its first good path
 //! (substation paper, section 3.3).
 
-use crate::field::{descend, ApfParams, Attraction};
+use crate::field::{descend_checked, ApfParams, Attraction};
 use crate::geometry::Cell;
 use crate::planner::{PlanContext, PlanError, PlanStats, Problem};
 use crate::search::astar::astar_cells;
@@ -21,7 +21,9 @@ pub fn field_or_astar(
     stats: &mut PlanStats,
     role: &str,
 ) -> Result<Vec<Cell>, PlanError> {
-    match descend(problem.grid, field, problem.start, problem.goal) {
+    match descend_checked(problem.grid, field, problem.start, problem.goal, &|| {
+        ctx.check()
+    })? {
         Ok(path) => {
             match field.attraction {
                 Attraction::Paper => {

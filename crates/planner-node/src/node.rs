@@ -62,6 +62,16 @@ use ros_edge::naming::Naming;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
 
+/// `config` with the objective weight `name` set (`params::WEIGHTS`), or why not.
+fn weight(
+    config: &planner_core::config::PlannerConfig,
+    name: &str,
+    value: f64,
+) -> Result<planner_core::config::PlannerConfig, String> {
+    with_weight(config, name, value)
+        .unwrap_or_else(|| Err(format!("`{name}` cannot be set at run time")))
+}
+
 /// Runs the node until Ctrl-C or SIGTERM.
 pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let mut signals = ros_edge::ShutdownSignals::new()?;
@@ -123,11 +133,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
                 }
                 ("max_planning_time", ParameterValue::Double(v)) => l.max_planning_time = *v,
                 ("tolerance", ParameterValue::Double(v)) => l.tolerance = *v,
-                (_, ParameterValue::Double(v)) => match with_weight(&l.config, name, *v) {
-                    Some(Ok(config)) => l.config = config,
-                    Some(Err(reason)) => return Err(reason),
-                    None => return Err(format!("`{name}` cannot be set at run time")),
-                },
+                (_, ParameterValue::Double(v)) => l.config = weight(&l.config, name, *v)?,
+                // `ros2 param set ... swarm.safety_weight 0` sends an integer.
+                (_, ParameterValue::Integer(v)) => l.config = weight(&l.config, name, *v as f64)?,
                 _ => return Err(format!("`{name}` cannot be set at run time")),
             }
             info!("parameter {name} set to {value:?}");

@@ -100,8 +100,10 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
                 Err(format!("{name} must be finite, not {v}"))
             }
         }
+        // `ros2 param set ... swarm.safety_weight 0` sends an integer.
+        (n, ParameterValue::Integer(_)) if WEIGHTS.iter().any(|w| w.name == n) => Ok(()),
         (n, v) if WEIGHTS.iter().any(|w| w.name == n) => {
-            Err(format!("{name} must be a double, not {v:?}"))
+            Err(format!("{name} must be a number, not {v:?}"))
         }
         _ => Err(format!("`{name}` cannot be set at run time")),
     }
@@ -124,7 +126,8 @@ mod tests {
             let refused = with_weight(&base, w.name, -1.0).unwrap();
             assert!(refused.is_err(), "{} took -1", w.name);
             assert!(validate_parameter(w.name, &ParameterValue::Double(f64::NAN)).is_err());
-            assert!(validate_parameter(w.name, &ParameterValue::Integer(1)).is_err());
+            assert!(validate_parameter(w.name, &ParameterValue::Integer(1)).is_ok());
+            assert!(validate_parameter(w.name, &ParameterValue::Boolean(true)).is_err());
             assert!(validate_parameter(w.name, &ParameterValue::Double(0.5)).is_ok());
         }
         assert!(with_weight(&base, "swarm.safety_weight", 1.5)

@@ -317,10 +317,24 @@ pub fn descend(
     start: Cell,
     goal: Cell,
 ) -> Result<ApfPath, ApfFailure> {
-    match params.attraction {
+    descend_checked(grid, params, start, goal, &|| Ok(()))
+        .expect("never interrupted without a check")
+}
+
+/// [`descend`], polling `check` (a plan's deadline and cancel) while the navigation mode's
+/// wavefront spreads: that search is as large as A*'s and must stop when the plan is given up.
+/// The outer error is the interrupt; the inner one the field's own failure.
+pub fn descend_checked(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    start: Cell,
+    goal: Cell,
+    check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
+) -> Result<Result<ApfPath, ApfFailure>, crate::planner::PlanError> {
+    Ok(match params.attraction {
         Attraction::Paper => descend_with(grid, params, start, goal, true),
-        Attraction::Navigation => descend_navigation(grid, params, start, goal),
-    }
+        Attraction::Navigation => descend_navigation(grid, params, start, goal, check)?,
+    })
 }
 
 /// The wavefront distance (m) from `goal` to the free cells up to `start` (Dijkstra over the
@@ -343,8 +357,14 @@ impl Wavefront {
     }
 }
 
-/// The [`Wavefront`] from `goal`; `None` when `start` is not connected to `goal`.
-fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Wavefront> {
+/// The [`Wavefront`] from `goal`; `None` when `start` is not connected to `goal`. Polls `check`
+/// every 4096 cells.
+fn wavefront(
+    grid: &PlanningGrid,
+    start: Cell,
+    goal: Cell,
+    check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
+) -> Result<Option<Wavefront>, crate::planner::PlanError> {
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
     let info = grid.info();
@@ -357,14 +377,19 @@ fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Wavefront> 
     let mut heap = BinaryHeap::new();
     // Distances are non-negative: their bit patterns order like the numbers.
     heap.push(Reverse((0u64, info.index(goal))));
+    let mut popped = 0u64;
     while let Some(Reverse((bits, i))) = heap.pop() {
         let di = f64::from_bits(bits);
         if di > w.d[i] {
             continue;
         }
+        popped += 1;
+        if popped.is_multiple_of(4096) {
+            check()?;
+        }
         let c = info.cell_at(i);
         if c == start {
-            return Some(w);
+            return Ok(Some(w));
         }
         for (_, n) in grid.moves(c) {
             let step = if n.x != c.x && n.y != c.y {
@@ -381,7 +406,7 @@ fn wavefront(grid: &PlanningGrid, start: Cell, goal: Cell) -> Option<Wavefront> 
             }
         }
     }
-    None
+    Ok(None)
 }
 
 /// Navigation mode: each step goes to the neighbour of least potential `0.5 epsilon D^2 +
@@ -396,13 +421,14 @@ fn descend_navigation(
     params: &ApfParams,
     start: Cell,
     goal: Cell,
-) -> Result<ApfPath, ApfFailure> {
-    let Some(d) = wavefront(grid, start, goal) else {
-        return Err(ApfFailure {
+    check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
+) -> Result<Result<ApfPath, ApfFailure>, crate::planner::PlanError> {
+    let Some(d) = wavefront(grid, start, goal, check)? else {
+        return Ok(Err(ApfFailure {
             reason: "the goal is not reachable from the start".into(),
             steps: 0,
             escapes: 0,
-        });
+        }));
     };
     let info = grid.info();
     let field = PotentialField::new(grid, params, goal.center());
@@ -430,11 +456,11 @@ fn descend_navigation(
         cells.push(next);
         cur = next;
     }
-    Ok(ApfPath {
+    Ok(Ok(ApfPath {
         cells,
         escapes: 0,
         wavefront_steps,
-    })
+    }))
 }
 
 /// The same, with escapes switched off: the plain APF that stalls in a U trap (for comparison
