@@ -1,6 +1,7 @@
 """Fixtures for the rclpy integration tests: the real patrol_planner release binary on its own
 ROS_DOMAIN_ID, and an rclpy node that talks to it the way a ROS 2 user's stack would. Tests wait
 for discovery and answers, never for fixed sleeps."""
+import functools
 import math
 import os
 import signal
@@ -22,14 +23,36 @@ BINARY = ROOT / "target" / "release" / "patrol_planner"
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
+def _domains_in_use():
+    """The ROS_DOMAIN_IDs in other running processes' environments (a soak, another test run)."""
+    used = set()
+    for environ in Path("/proc").glob("[0-9]*/environ"):
+        if environ.parent.name == str(os.getpid()):
+            continue
+        try:
+            for item in environ.read_bytes().split(b"\0"):
+                if item.startswith(b"ROS_DOMAIN_ID="):
+                    used.add(int(item.split(b"=", 1)[1] or 0))
+        except (OSError, ValueError):
+            pass
+    return used
+
+
+@functools.lru_cache(maxsize=None)
 def domain_id(offset=0):
     """One domain per test run (0..232 are valid; stay clear of 0, the default); a test module
     that starts binaries of its own uses `offset` to keep them apart from the session node.
     TEST_DOMAIN_BASE and TEST_DOMAIN_SPAN (default 100 and 100: domains 100-199) give a pytest
     run that goes beside another one a range of its own (scripts/test-all runs test_patrol.py
-    on 200-229)."""
+    on 200-229). A domain another process on this machine already uses (a soak, a second test
+    run) is skipped; the answer is kept for the run, so a module asking again gets the same."""
     base = int(os.environ.get("TEST_DOMAIN_BASE", "100"))
     span = int(os.environ.get("TEST_DOMAIN_SPAN", "100"))
+    used = _domains_in_use()
+    for k in range(span):
+        d = base + (os.getpid() + offset + k) % span
+        if d not in used:
+            return d
     return base + (os.getpid() + offset) % span
 
 
