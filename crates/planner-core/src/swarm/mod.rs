@@ -438,27 +438,11 @@ impl Population for Swarm<'_> {
         stats.counters.extend(start.counters);
         let search = &mut self.search;
         let p = search.p;
-        let seed_eval = search.evaluate(&self.seed);
-        search.scale = [
-            seed_eval.f1.max(1e-9),
-            seed_eval.f2.max(1e-3),
-            seed_eval.f3.max(1e-3),
-        ];
+        let seed_eval = search.evaluate_seed(&self.seed);
         self.archive.offer(&self.seed, seed_eval);
         self.best = (self.seed.clone(), seed_eval);
         for k in 0..p.population {
-            let mut x = self.seed.clone();
-            if k > 0 {
-                for (v, range) in x.iter_mut().zip(&search.range) {
-                    *v += ctx.rng.random_range(-1.0..=1.0) * p.init_spread * range;
-                }
-                search.clamp(&mut x);
-            }
-            let e = if k == 0 {
-                seed_eval
-            } else {
-                search.evaluate(&x)
-            };
+            let (x, e) = search.initial_member(&self.seed, seed_eval, k, ctx);
             search.offer(&mut self.archive, &mut self.best, &x, e);
             self.xs.push(x);
             self.evals.push(e);
@@ -636,6 +620,35 @@ impl<'a> Search<'a> {
                 safety: p.safety_weight,
             },
         }
+    }
+
+    /// Evaluates the seed and makes its objectives the scale of the scalarisation.
+    fn evaluate_seed(&mut self, seed: &[f64]) -> Eval {
+        let e = self.evaluate(seed);
+        self.scale = [e.f1.max(1e-9), e.f2.max(1e-3), e.f3.max(1e-3)];
+        e
+    }
+
+    /// Member `k` of the initial population (section II.E steps 1-2, and NSGA-II's start): the
+    /// seed itself for `k == 0`, else a point within `init_spread` of each dimension's range
+    /// around it; with its evaluation.
+    fn initial_member(
+        &mut self,
+        seed: &[f64],
+        seed_eval: Eval,
+        k: usize,
+        ctx: &mut PlanContext<'_>,
+    ) -> (Vec<f64>, Eval) {
+        let mut x = seed.to_vec();
+        if k == 0 {
+            return (x, seed_eval);
+        }
+        for (v, range) in x.iter_mut().zip(&self.range) {
+            *v += ctx.rng.random_range(-1.0..=1.0) * self.p.init_spread * range;
+        }
+        self.clamp(&mut x);
+        let e = self.evaluate(&x);
+        (x, e)
     }
 
     /// Eq. 18 with constraint violation.

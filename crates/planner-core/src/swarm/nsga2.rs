@@ -269,26 +269,9 @@ impl Population for Nsga2<'_> {
         let start = std::mem::take(&mut self.start_stats);
         stats.notes.extend(start.notes);
         stats.counters.extend(start.counters);
-        let seed_eval = self.search.evaluate(&self.seed);
-        self.search.scale = [
-            seed_eval.f1.max(1e-9),
-            seed_eval.f2.max(1e-3),
-            seed_eval.f3.max(1e-3),
-        ];
-        let spread = self.search.p.init_spread;
+        let seed_eval = self.search.evaluate_seed(&self.seed);
         for k in 0..self.params.population {
-            let mut x = self.seed.clone();
-            if k > 0 {
-                for (v, range) in x.iter_mut().zip(&self.search.range) {
-                    *v += ctx.rng.random_range(-1.0..=1.0) * spread * range;
-                }
-                self.search.clamp(&mut x);
-            }
-            let e = if k == 0 {
-                seed_eval
-            } else {
-                self.search.evaluate(&x)
-            };
+            let (x, e) = self.search.initial_member(&self.seed, seed_eval, k, ctx);
             self.pop.push(Member {
                 x,
                 e,
