@@ -31,8 +31,8 @@
 //! quadratic Euclidean attraction leaves local minima behind every wall, and on large maps the
 //! escape rarely finds its way (issue 12: every answer on the large-map queries was A*'s). The
 //! default, `attraction: navigation`, replaces eq. 4's `d_g`, the straight-line distance to the
-//! goal, by the wavefront distance through free space (Dijkstra from the goal over the same
-//! 8-neighbour moves): a navigation function, with no local minimum but the goal. The repulsion
+//! goal, by the wavefront distance through free space (a search from the goal over the same
+//! 8-neighbour moves, guided toward the start as A* is): a navigation function, with no local minimum but the goal. The repulsion
 //! (eq. 1, eq. 9) is kept, so the path still keeps off the walls where it has room; where the
 //! repulsion alone would hold it (a narrow passage), the step follows the wavefront downhill
 //! instead (counted as `wavefront_steps`), so the descent always reaches the goal on its own.
@@ -254,7 +254,7 @@ impl Planner for ApfPlanner {
         Ok(RawPlan {
             waypoints: cells.iter().map(|c| c.center()).collect(),
             stats,
-            pareto: Vec::new(),
+            ..RawPlan::default()
         })
     }
 }
@@ -337,8 +337,17 @@ pub fn descend_checked(
     })
 }
 
-/// The wavefront distance (m) from `goal` to the free cells up to `start` (Dijkstra over the
-/// grid's moves, stopped once `start` is settled).
+/// The wavefront distance (m) from `goal` through free space, over the cells a goal-rooted
+/// search toward `start` reached.
+///
+/// The search is A* run backwards (from the goal, the octile distance to the start as its
+/// heuristic) rather than a Dijkstra to every cell up to the start's distance: on a large open
+/// map that visits a disc around the goal, A* the ellipse around the straight line, which is
+/// what made the field 7 x A*'s time on Nav2's 2000 x 2000 benchmark map (issue 12). The
+/// heuristic is consistent, so every settled cell's distance is exact; a cell reached but not
+/// settled holds an upper bound set from a settled parent with a smaller one. Either way each
+/// reached cell other than the goal has a neighbour strictly closer, which is all the descent
+/// needs to reach the goal without stalling.
 struct Wavefront {
     d: Vec<f64>,
     /// Whether `d[i]` is set. Both tables start all-zero (untouched zero pages): the search pays
@@ -365,6 +374,7 @@ fn wavefront(
     goal: Cell,
     check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
 ) -> Result<Option<Wavefront>, crate::planner::PlanError> {
+    use crate::search::astar::octile;
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
     let info = grid.info();
@@ -373,23 +383,39 @@ fn wavefront(
         d: vec![0.0; info.cell_count()],
         reached: vec![false; info.cell_count()],
     };
+    let mut settled = vec![false; info.cell_count()];
     w.reached[info.index(goal)] = true;
     let mut heap = BinaryHeap::new();
-    // Distances are non-negative: their bit patterns order like the numbers.
-    heap.push(Reverse((0u64, info.index(goal))));
+    // Keys are non-negative: their bit patterns order like the numbers. Ties on f go to the
+    // larger distance (the cell nearer the start), then the smaller index: fully deterministic.
+    let key = |d: f64, c: Cell| {
+        let f = d + octile(c, start) * res;
+        Reverse((f.to_bits(), Reverse(d.to_bits())))
+    };
+    heap.push((key(0.0, goal), Reverse(info.index(goal))));
     let mut popped = 0u64;
-    while let Some(Reverse((bits, i))) = heap.pop() {
-        let di = f64::from_bits(bits);
-        if di > w.d[i] {
+    // Once the start is settled at f*, the search goes on until f passes f* + WAVEFRONT_MARGIN_M:
+    // every cell of a path at most that much longer than the shortest is then settled with its
+    // exact distance, so the descent has a band of true values to choose from around the
+    // shortest path (stopping at the start left its neighbours with upper bounds, and the
+    // descent staircased along the search's own order: 2 x the turning).
+    let mut stop_at = f64::INFINITY;
+    while let Some((Reverse((f_bits, _)), Reverse(i))) = heap.pop() {
+        if settled[i] {
             continue;
         }
+        if f64::from_bits(f_bits) > stop_at {
+            break;
+        }
+        settled[i] = true;
         popped += 1;
         if popped.is_multiple_of(4096) {
             check()?;
         }
+        let di = w.d[i];
         let c = info.cell_at(i);
         if c == start {
-            return Ok(Some(w));
+            stop_at = di + WAVEFRONT_MARGIN_M;
         }
         for (_, n) in grid.moves(c) {
             let step = if n.x != c.x && n.y != c.y {
@@ -399,15 +425,19 @@ fn wavefront(
             };
             let j = info.index(n);
             let dn = di + step * res;
-            if !w.reached[j] || dn < w.d[j] {
+            if !settled[j] && (!w.reached[j] || dn < w.d[j]) {
                 w.d[j] = dn;
                 w.reached[j] = true;
-                heap.push(Reverse((dn.to_bits(), j)));
+                heap.push((key(dn, n), Reverse(j)));
             }
         }
     }
-    Ok(None)
+    Ok(settled[info.index(start)].then_some(w))
 }
+
+/// How much longer than the shortest a path may be and still have its cells' wavefront
+/// distances exact (see [`wavefront`]).
+const WAVEFRONT_MARGIN_M: f64 = 1.0;
 
 /// Navigation mode: each step goes to the neighbour of least potential `0.5 epsilon D^2 +
 /// repulsion` (`D` the wavefront distance) among those strictly closer to the goal by the
