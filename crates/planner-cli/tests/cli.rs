@@ -245,11 +245,11 @@ fn a_top_level_typo_in_the_config_is_an_error() {
     assert!(stderr.contains(&expected), "{stderr}");
 }
 
-/// `plan` says why the run stopped.
+/// `plan` says why the run stopped (the swarm's default patience ends it before its iterations).
 #[test]
 fn plan_prints_the_termination() {
     let map = shared("bench/datacenter_100.yaml");
-    for (planner, termination) in [("astar", "completed"), ("mocmcso", "max_iterations")] {
+    for (planner, termination) in [("astar", "completed"), ("mocmcso", "converged")] {
         let (ok, stdout, stderr) = patrol_plan(&[
             "plan",
             "--map",

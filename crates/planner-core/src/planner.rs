@@ -120,6 +120,10 @@ pub struct RawPlan {
     pub stats: PlanStats,
     /// The Pareto front (grid coordinates), for multi-objective planners.
     pub pareto: Vec<ParetoMember>,
+    /// The path the planner started from, for planners that improve on a seed (the swarms,
+    /// NSGA-II, the improved colony, the seeded GA): [`solve`] finishes it as it finishes the
+    /// answer and records whether the answer is better (counter `improved_on_seed`).
+    pub seed: Option<Vec<Point2>>,
 }
 
 /// The answer to a request: a verified, measured path in world metres.
@@ -180,7 +184,7 @@ pub enum PlanError {
 
 /// What one plan may allocate for its per-cell working tables unless configured otherwise
 /// (`max_plan_memory_mb`): 2 GiB, which every planner stays within on a 4000 x 4000 map (16 M
-/// cells; the largest, the ant colonies, need 56 B per cell there, 0.9 GB). The map itself (the
+/// cells; the largest, any_angle, needs 72 B per cell there, 1.2 GB). The map itself (the
 /// grid, its clearance transform, the planning grid) is the node's and is not counted.
 pub const DEFAULT_MAX_PLAN_BYTES: u64 = 2 << 30;
 
@@ -282,6 +286,21 @@ pub fn solve(
         .smoothing
         .unwrap_or_else(|| planner.smooth_by_default());
     let waypoints = finish_path(grid, &problem, raw.waypoints, smoothing)?;
+    if let Some(seed) = raw.seed.take() {
+        // The seed gets the same post-processing as the answer, so that the delete operation of
+        // the colonies and the GA is not counted as the search's improvement.
+        if let Ok(seed) = finish_path(grid, &problem, seed, smoothing) {
+            let better = improves_on(&measure(grid, &seed), &measure(grid, &waypoints));
+            raw.stats
+                .counters
+                .insert("improved_on_seed".into(), if better { 1.0 } else { 0.0 });
+            if !better {
+                raw.stats
+                    .notes
+                    .push("the answer is not better than the seed it started from".into());
+            }
+        }
+    }
     let info = grid.info();
     let to_world = |pts: &[Point2]| {
         pts.iter()
@@ -305,6 +324,17 @@ pub fn solve(
         goal: info.grid_to_world(problem.goal_point),
         resolution: info.resolution,
     })
+}
+
+/// Whether `answer` is better than `seed` the way issue 12 counts it: shorter or smoother, and
+/// worse on neither (a relative tolerance of 1e-9 absorbs rounding).
+pub fn improves_on(seed: &PathMetrics, answer: &PathMetrics) -> bool {
+    let tol = |v: f64| 1e-9 * v.abs().max(1.0);
+    let no_worse = answer.length_m <= seed.length_m + tol(seed.length_m)
+        && answer.turning_rad <= seed.turning_rad + tol(seed.turning_rad);
+    let better = answer.length_m < seed.length_m - tol(seed.length_m)
+        || answer.turning_rad < seed.turning_rad - tol(seed.turning_rad);
+    no_worse && better
 }
 
 /// Checks a world-frame request against the grid and turns it into a [`Problem`].
@@ -419,4 +449,41 @@ fn finish_path(
         ));
     }
     Ok(points)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn metrics(length_m: f64, turning_rad: f64) -> PathMetrics {
+        PathMetrics {
+            length_m,
+            turning_rad,
+            turns: 0,
+            min_clearance_m: 1.0,
+            mean_clearance_m: 1.0,
+            path_cost: 0.0,
+            collision_free: true,
+        }
+    }
+
+    /// Issue 12's rule: shorter or smoother, worse on neither; equal is not an improvement.
+    #[test]
+    fn improvement_on_the_seed_is_better_on_one_and_worse_on_neither() {
+        let seed = metrics(10.0, 2.0);
+        assert!(improves_on(&seed, &metrics(9.5, 2.0)));
+        assert!(improves_on(&seed, &metrics(10.0, 1.0)));
+        assert!(improves_on(&seed, &metrics(9.0, 1.0)));
+        assert!(!improves_on(&seed, &metrics(10.0, 2.0)));
+        assert!(
+            !improves_on(&seed, &metrics(9.0, 2.5)),
+            "shorter but turns more"
+        );
+        assert!(
+            !improves_on(&seed, &metrics(10.5, 0.5)),
+            "smoother but longer"
+        );
+        // Rounding noise is neither better nor worse.
+        assert!(!improves_on(&seed, &metrics(10.0 + 1e-12, 2.0 - 1e-12)));
+    }
 }

@@ -30,6 +30,8 @@
 //! - the first good path is the EAPF path (escapes included), or A*'s when the EAPF cannot reach
 //!   the goal (the swarms' rule; the result says so); it seeds the best-so-far ant.
 
+pub mod pheromone;
+
 use crate::driver::{drive, Budget, Population};
 use crate::field::{ApfParams, PotentialField};
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
@@ -39,6 +41,7 @@ use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPla
 use crate::registry::PlannerName;
 use crate::search::astar::cell_path_length;
 use crate::seed::field_or_astar;
+use pheromone::{Evaporation, Pheromone};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -206,8 +209,25 @@ pub fn band_pheromone(cell: Point2, start: Point2, goal: Point2, t: f64, c: f64)
     t * (c - k).max(1.0) / c
 }
 
-/// The initial pheromone of every cell (row-major): eq. 17-18's band along the start-goal line
-/// for `eapf_iaco`, uniform `T` for the baselines, and zero on every blocked cell.
+/// The initial pheromone of a cell: eq. 17-18's band along the start-goal line for
+/// `eapf_iaco`, uniform `T` for the baselines, and zero on every blocked cell.
+pub fn initial_pheromone_at(
+    grid: &PlanningGrid,
+    variant: ColonyVariant,
+    (start, goal): (Point2, Point2),
+    (t, band): (f64, f64),
+    c: Cell,
+) -> f64 {
+    if !grid.is_free(c) {
+        0.0
+    } else if variant == ColonyVariant::EapfIaco {
+        band_pheromone(c.center(), start, goal, t, band)
+    } else {
+        t
+    }
+}
+
+/// [`initial_pheromone_at`] of every cell (row-major).
 pub fn initial_pheromone(
     grid: &PlanningGrid,
     variant: ColonyVariant,
@@ -218,14 +238,9 @@ pub fn initial_pheromone(
     let info = grid.info();
     (0..info.cell_count())
         .map(|i| {
-            let c = info.cell_at(i);
-            if !grid.is_free(c) {
-                0.0
-            } else if variant == ColonyVariant::EapfIaco {
-                band_pheromone(c.center(), start, goal, p.initial_pheromone, p.band)
-            } else {
-                p.initial_pheromone
-            }
+            let ends = (start, goal);
+            let band = (p.initial_pheromone, p.band);
+            initial_pheromone_at(grid, variant, ends, band, info.cell_at(i))
         })
         .collect()
 }
@@ -248,10 +263,10 @@ impl Planner for ColonyPlanner {
         self.variant.name()
     }
 
-    /// A* (the `eapf_iaco` seed) plus the pheromone and its initial copy (8 + 8 B), the ants'
+    /// A* (the `eapf_iaco` seed) plus the pheromone and its update count (8 + 4 B), the ants'
     /// visit stamps (4 B) and the heuristic's row index (4 B) of every cell.
     fn working_bytes_per_cell(&self) -> u64 {
-        crate::planner::ASTAR_BYTES_PER_CELL + 24
+        crate::planner::ASTAR_BYTES_PER_CELL + 20
     }
 
     fn smooth_by_default(&self) -> bool {
@@ -274,7 +289,7 @@ struct Colony<'a> {
     problem: Problem<'a>,
     info: MapInfo,
     /// `eta^beta` per move (eq. 14-16, or 12) of each cell an ant has stood on, computed on its
-    /// first visit: `heuristic_slot[cell]` indexes `heuristic_rows` (`u32::MAX`: not yet). The
+    /// first visit: `heuristic_slot[cell] - 1` indexes `heuristic_rows` (0: not yet). The
     /// heuristic never changes, so computing it lazily gives the same numbers as a table of every
     /// cell, which cost 64 B/cell (1 GB at 16 M cells) where ants touch a small share of a
     /// large map; this costs 4 B/cell plus 64 B per visited cell.
@@ -282,13 +297,14 @@ struct Colony<'a> {
     heuristic_rows: Vec<[f64; 8]>,
     /// The field the heuristic follows (EAPF or APF; unused by `aco`).
     field_params: ApfParams,
-    /// The initial pheromone (eq. 17-18, or uniform), which eq. 19 restores a share of.
-    tau0: Vec<f64>,
-    tau: Vec<f64>,
-    /// The pheromone floor, so that eq. 13 stays defined.
-    floor: f64,
+    /// The pheromone: initially eq. 17-18's band (or uniform), of which eq. 19 restores a
+    /// share; evaporated lazily.
+    pheromone: Pheromone<'a>,
     /// The best-so-far ant's cells and length (cells).
     best: Option<(Vec<Cell>, f64)>,
+    /// The field's path the improved colony starts from (grid coordinates), for the answer's
+    /// comparison with it.
+    seed: Option<Vec<Point2>>,
     /// An ant gives up after this many steps.
     steps: usize,
     /// `visited[i] == stamp` marks the cells the current ant has been on.
@@ -309,13 +325,30 @@ impl<'a> Colony<'a> {
             planner,
             problem,
             info: *grid.info(),
-            heuristic_slot: vec![u32::MAX; grid.width() * grid.height()],
+            // All-zero: untouched zero pages until an ant stands on the cell.
+            heuristic_slot: vec![0; grid.width() * grid.height()],
             heuristic_rows: Vec::new(),
             field_params: planner.field_params(),
-            tau0: Vec::new(),
-            tau: Vec::new(),
-            floor: p.tau_min * p.initial_pheromone,
+            pheromone: {
+                let variant = planner.variant;
+                let ends = (problem.start.center(), problem.goal.center());
+                let band = (p.initial_pheromone, p.band);
+                let rule = if variant == ColonyVariant::EapfIaco {
+                    Evaporation::Adjusted
+                } else {
+                    Evaporation::Plain
+                };
+                Pheromone::new(
+                    grid,
+                    move |c| initial_pheromone_at(grid, variant, ends, band, c),
+                    rule,
+                    p.rho,
+                    // The floor, so that eq. 13 stays defined.
+                    p.tau_min * p.initial_pheromone,
+                )
+            },
             best: None,
+            seed: None,
             steps,
             visited: vec![0u32; grid.width() * grid.height()],
             stamp: 0,
@@ -330,8 +363,8 @@ impl<'a> Colony<'a> {
     /// heuristic for `aco_apf`, eq. 12's `1/d` for `aco`), from the table or computed now.
     fn heuristic(&mut self, c: Cell) -> [f64; 8] {
         let i = self.info.index(c);
-        if let Some(row) = self.heuristic_rows.get(self.heuristic_slot[i] as usize) {
-            return *row;
+        if let Some(slot) = self.heuristic_slot[i].checked_sub(1) {
+            return self.heuristic_rows[slot as usize];
         }
         let p = &self.planner.params;
         let variant = self.planner.variant;
@@ -358,8 +391,8 @@ impl<'a> Colony<'a> {
             }
             row[k] = eta.powf(p.beta);
         }
-        self.heuristic_slot[i] = self.heuristic_rows.len() as u32;
         self.heuristic_rows.push(row);
+        self.heuristic_slot[i] = self.heuristic_rows.len() as u32;
         row
     }
 
@@ -389,8 +422,18 @@ impl<'a> Colony<'a> {
             for (k, nb) in grid.moves(cur) {
                 if self.visited[info.index(nb)] != self.stamp {
                     // Eq. 13's weight: tau^alpha * eta^beta.
-                    let weight =
-                        self.tau[info.index(nb)].max(self.floor).powf(p.alpha) * eta_beta[k];
+                    let tau = self
+                        .pheromone
+                        .get(info.index(nb))
+                        .max(self.pheromone.floor());
+                    // pow(x, 1) is x exactly; skipping the call halves the ants' time at
+                    // the paper's alpha = 1.
+                    let tau_alpha = if p.alpha == 1.0 {
+                        tau
+                    } else {
+                        tau.powf(p.alpha)
+                    };
+                    let weight = tau_alpha * eta_beta[k];
                     self.candidates.push((nb, weight));
                 }
             }
@@ -409,7 +452,7 @@ impl<'a> Colony<'a> {
             }
             // Eq. 19: local update of the cell moved into.
             let j = info.index(next);
-            self.tau[j] = ((1.0 - p.rho) * self.tau[j] + p.omega * self.tau0[j]).max(self.floor);
+            self.pheromone.local_update(j, p.omega);
             self.visited[j] = self.stamp;
             self.walk.push(next);
             cur = next;
@@ -419,21 +462,17 @@ impl<'a> Colony<'a> {
 }
 
 impl Population for Colony<'_> {
-    /// The initial pheromone (the heuristic is computed as the ants reach each cell); for
-    /// `eapf_iaco` the EAPF path as the first good path (A*'s when the EAPF cannot reach the
-    /// goal, the swarms' rule; the result says so).
+    /// For `eapf_iaco`, the EAPF path as the first good path (A*'s when the EAPF cannot reach
+    /// the goal, the swarms' rule; the result says so). The pheromone and the heuristic are
+    /// computed as the ants reach each cell.
     fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError> {
-        let grid = self.problem.grid;
-        let p = &self.planner.params;
         let variant = self.planner.variant;
         let field_params = self.field_params.clone();
-        let goal_c = self.problem.goal.center();
-        self.tau0 = initial_pheromone(grid, variant, self.problem.start.center(), goal_c, p);
-        self.tau = self.tau0.clone();
         if variant == ColonyVariant::EapfIaco {
             let cells =
                 field_or_astar(&self.problem, &field_params, ctx, stats, "first good path")?;
             let len = cell_path_length(&cells);
+            self.seed = Some(cells.iter().map(|c| c.center()).collect());
             self.best = Some((cells, len));
         }
         Ok(self.best_value())
@@ -465,30 +504,17 @@ impl Population for Colony<'_> {
             ColonyVariant::EapfIaco => {
                 // Eq. 20-22 on the best-so-far ant.
                 let coeff = adjustment_coefficient(t, p.iterations);
-                for v in self.tau.iter_mut() {
-                    *v *= 1.0 - p.rho;
-                }
-                if let Some((cells, len)) = &self.best {
-                    for c in cells {
-                        self.tau[info.index(*c)] += 1.0 / len;
-                    }
-                }
-                for (v, &t0) in self.tau.iter_mut().zip(&self.tau0) {
-                    if t0 > 0.0 {
-                        *v = (*v * coeff).max(self.floor);
-                    }
-                }
+                let deposits = self.best.iter().flat_map(|(cells, len)| {
+                    cells.iter().map(move |c| (info.index(*c), 1.0 / len))
+                });
+                self.pheromone.global_update(deposits, coeff);
             }
             _ => {
                 // The ant system: evaporation, then every finished ant deposits 1 / L_k.
-                for v in self.tau.iter_mut() {
-                    *v = (*v * (1.0 - p.rho)).max(self.floor);
-                }
-                for (cells, len) in &finished {
-                    for c in cells {
-                        self.tau[info.index(*c)] += 1.0 / len;
-                    }
-                }
+                let deposits = finished.iter().flat_map(|(cells, len)| {
+                    cells.iter().map(move |c| (info.index(*c), 1.0 / len))
+                });
+                self.pheromone.global_update(deposits, 1.0);
             }
         }
         self.best_value()
@@ -516,6 +542,7 @@ impl Population for Colony<'_> {
             waypoints: cells.iter().map(|c| c.center()).collect(),
             stats,
             pareto: Vec::new(),
+            seed: self.seed,
         })
     }
 }

@@ -36,7 +36,7 @@
 //! - The delete operation (4.5) on the best path: on by default for `imga`, off for `ga`.
 
 use crate::driver::{drive, Budget, Population};
-use crate::geometry::{Cell, NEIGHBOURS_8};
+use crate::geometry::{Cell, Point2, NEIGHBOURS_8};
 use crate::grid::inflation::PlanningGrid;
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
@@ -397,6 +397,7 @@ impl Planner for GaPlanner {
                 + 8,
             scored: Vec::new(),
             best: (f64::INFINITY, Vec::new()),
+            seed: None,
             evaluations: 0,
             failed_mutations: 0,
         };
@@ -419,6 +420,8 @@ struct Generations<'a> {
     insertion_budget: usize,
     scored: Vec<(f64, Vec<Cell>)>,
     best: (f64, Vec<Cell>),
+    /// The field's path, the first individual when `seeded` (grid coordinates).
+    seed: Option<Vec<Point2>>,
     evaluations: u64,
     failed_mutations: u64,
 }
@@ -484,6 +487,7 @@ impl Population for Generations<'_> {
                 stats,
                 "first individual",
             )?;
+            self.seed = Some(seed.iter().map(|c| c.center()).collect());
             pop.push(seed);
         }
         let mut discarded = 0u64;
@@ -596,6 +600,7 @@ impl Population for Generations<'_> {
             waypoints: self.best.1.iter().map(|c| c.center()).collect(),
             stats,
             pareto: Vec::new(),
+            seed: self.seed,
         })
     }
 }

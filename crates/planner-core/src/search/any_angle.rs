@@ -80,7 +80,7 @@ impl Planner for AnyAngle {
         Ok(RawPlan {
             waypoints,
             stats,
-            pareto: Vec::new(),
+            ..RawPlan::default()
         })
     }
 }

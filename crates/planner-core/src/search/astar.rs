@@ -48,7 +48,7 @@ impl Planner for AStar {
         Ok(RawPlan {
             waypoints,
             stats,
-            pareto: Vec::new(),
+            ..RawPlan::default()
         })
     }
 }

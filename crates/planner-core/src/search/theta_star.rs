@@ -117,7 +117,7 @@ impl Planner for ThetaStar {
                 return Ok(RawPlan {
                     waypoints,
                     stats,
-                    pareto: Vec::new(),
+                    ..RawPlan::default()
                 });
             }
             let p = parent[i] as usize;

@@ -124,6 +124,60 @@ impl Encoding {
         }
     }
 
+    /// The number of waypoints a vector holds (its dimension for lateral, half of it for general).
+    pub fn waypoints(&self) -> usize {
+        match self {
+            Encoding::Lateral { stations, .. } => stations.len(),
+            Encoding::General { lo, .. } => lo.len() / 2,
+        }
+    }
+
+    /// One step of Laplacian smoothing on waypoints `from..to`: each moves `lambda` of the way
+    /// to the midpoint of its two neighbours (the start and the goal at the ends), all from the
+    /// old positions. A path's turning falls and its length never grows where the step applies;
+    /// whether the smoothed path is still free is for the evaluation to say. Lateral: the
+    /// offsets, since the stations are evenly spaced and start and goal sit at offset 0.
+    pub fn smooth(&self, x: &mut [f64], from: usize, to: usize, lambda: f64) {
+        let to = to.min(self.waypoints());
+        if from >= to {
+            return;
+        }
+        let old: Vec<f64> = x.to_vec();
+        match self {
+            Encoding::Lateral { .. } => {
+                let at = |j: isize| -> f64 {
+                    if j < 0 || j as usize >= old.len() {
+                        0.0
+                    } else {
+                        old[j as usize]
+                    }
+                };
+                for j in from..to {
+                    let mid = 0.5 * (at(j as isize - 1) + at(j as isize + 1));
+                    x[j] += lambda * (mid - old[j]);
+                }
+            }
+            Encoding::General { start, goal, .. } => {
+                let n = old.len() / 2;
+                let at = |j: isize| -> Point2 {
+                    if j < 0 {
+                        *start
+                    } else if j as usize >= n {
+                        *goal
+                    } else {
+                        Point2::new(old[2 * j as usize], old[2 * j as usize + 1])
+                    }
+                };
+                for j in from..to {
+                    let (a, b) = (at(j as isize - 1), at(j as isize + 1));
+                    let mid = a + (b - a) * 0.5;
+                    x[2 * j] += lambda * (mid.x - old[2 * j]);
+                    x[2 * j + 1] += lambda * (mid.y - old[2 * j + 1]);
+                }
+            }
+        }
+    }
+
     /// The polyline `[start, M_1, ..., M_i, goal]` (grid coordinates) of a vector, into `out`.
     pub fn decode_into(&self, x: &[f64], out: &mut Vec<Point2>) {
         out.clear();
@@ -279,6 +333,33 @@ mod tests {
                 assert!(q.x > -1e-9 && q.x < 10.0 + 1e-9 && q.y > -1e-9 && q.y < 8.0 + 1e-9);
             }
         }
+    }
+
+    #[test]
+    fn smoothing_moves_each_waypoint_half_way_to_its_neighbours_midpoint() {
+        use crate::grid::metrics::{path_length, total_turning};
+        let grid = grid_from_rows(&[".........."; 8]);
+        let (s, g) = (Point2::new(1.0, 4.0), Point2::new(9.0, 4.0));
+        let enc = Encoding::lateral(&grid, s, g, 4).unwrap();
+        // Lateral: the ends' neighbours are the start and the goal, at offset 0; every new value
+        // comes from the old ones (a Jacobi step): j0 mid (0 + -1)/2, j1 mid (1 + 1)/2, ...
+        let zigzag = vec![1.0, -1.0, 1.0, -1.0];
+        let mut x = zigzag.clone();
+        enc.smooth(&mut x, 0, 4, 0.5);
+        assert_eq!(x, vec![0.25, 0.0, 0.0, -0.25]);
+        let (before, after) = (enc.decode(&zigzag), enc.decode(&x));
+        assert!(total_turning(&after) < total_turning(&before));
+        assert!(path_length(&after) < path_length(&before));
+        // Only the run asked for moves; a run past the end is cut to the waypoints there are.
+        let mut y = zigzag.clone();
+        enc.smooth(&mut y, 1, 99, 1.0);
+        assert_eq!(y, vec![1.0, 1.0, -1.0, 0.5]);
+        // General: 2-D waypoints, the same rule per coordinate.
+        let gen = Encoding::general(&grid, s, g, 2);
+        let mut z = vec![3.0, 6.0, 5.0, 2.0];
+        gen.smooth(&mut z, 0, 2, 0.5);
+        // Waypoint 0: mid of (1, 4) and (5, 2) = (3, 3); waypoint 1: mid of (3, 6) and (9, 4) = (6, 5).
+        assert_eq!(z, vec![3.0, 4.5, 5.5, 3.5]);
     }
 
     #[test]

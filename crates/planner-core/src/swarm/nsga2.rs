@@ -367,15 +367,11 @@ impl Population for Nsga2<'_> {
         let chosen = super::pareto::weighted_choice(&objectives, self.search.weights)
             .map(|k| front[k].x.clone())
             .unwrap_or_else(|| self.seed.clone());
-        let improved = chosen != self.seed;
-        if !improved {
+        if chosen == self.seed {
             stats
                 .notes
-                .push("NSGA-II did not improve on its seed; the seed path is returned".into());
+                .push("NSGA-II did not move from its seed; the seed path is returned".into());
         }
-        stats
-            .counters
-            .insert("improved_on_seed".into(), if improved { 1.0 } else { 0.0 });
         let pareto = front
             .into_iter()
             .map(|m| ParetoMember {
@@ -389,6 +385,7 @@ impl Population for Nsga2<'_> {
             waypoints: enc.decode(&chosen),
             stats,
             pareto,
+            seed: Some(enc.decode(&self.seed)),
         })
     }
 }
