@@ -274,12 +274,29 @@ impl PlanningGrid {
     /// map, [`INSCRIBED`] where the robot's centre may not be (the inflated band), else
     /// `252 * exp(-cost_scaling_factor * (d - inscribed_radius))` at clearance `d` up to the
     /// inflation radius, and 0 beyond: the costmap Nav2's planners weigh.
+    #[inline]
     pub fn cost(&self, c: Cell) -> u8 {
         if !self.info.contains(c) {
             return LETHAL;
         }
+        self.cost_at_index(c, self.info.index(c))
+    }
+
+    /// [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] of one cell with one bounds check:
+    /// the swarms' evaluation asks both of every cell a candidate path crosses.
+    #[inline]
+    pub fn free_and_cost(&self, c: Cell) -> (bool, u8) {
+        if !self.info.contains(c) {
+            return (false, LETHAL);
+        }
+        let free = self.padded_free[(c.y as usize + 1) * (self.width() + 2) + c.x as usize + 1];
+        (free, self.cost_at_index(c, self.info.index(c)))
+    }
+
+    /// The cost of cell `c`, inside the map, at row-major index `i`.
+    #[inline]
+    fn cost_at_index(&self, c: Cell, i: usize) -> u8 {
         use std::sync::atomic::{AtomicU8, Ordering};
-        let i = self.info.index(c);
         if let Some(given) = &self.given_costs {
             return given[i];
         }

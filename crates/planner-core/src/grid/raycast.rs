@@ -117,9 +117,10 @@ pub fn blocked_and_cost_length(grid: &PlanningGrid, points: &[Point2]) -> (f64, 
     for w in points.windows(2) {
         let (mut total, mut blocked, mut cost) = (0u32, 0u32, 0u32);
         supercover(w[0], w[1], |c| {
+            let (free, c) = grid.free_and_cost(c);
             total += 1;
-            blocked += u32::from(!grid.is_free(c));
-            cost += u32::from(grid.cost(c));
+            blocked += u32::from(!free);
+            cost += u32::from(c);
             true
         });
         let len = (w[1] - w[0]).norm();
