@@ -4,7 +4,7 @@
 //! 2: the APF path is the first global best), the improved colony takes it as its first good path
 //! (substation paper, section 3.3).
 
-use crate::field::{descend_checked, ApfParams, Attraction};
+use crate::field::{descend_on, ApfParams, Attraction, Wavefront};
 use crate::geometry::Cell;
 use crate::planner::{PlanContext, PlanError, PlanStats, Problem};
 use crate::search::astar::astar_cells;
@@ -21,9 +21,27 @@ pub fn field_or_astar(
     stats: &mut PlanStats,
     role: &str,
 ) -> Result<Vec<Cell>, PlanError> {
-    match descend_checked(problem.grid, field, problem.start, problem.goal, &|| {
-        ctx.check()
-    })? {
+    field_or_astar_on(problem, field, ctx, stats, role, None)
+}
+
+/// [`field_or_astar`] on the navigation function the caller already searched for this query.
+pub fn field_or_astar_on(
+    problem: &Problem<'_>,
+    field: &ApfParams,
+    ctx: &PlanContext<'_>,
+    stats: &mut PlanStats,
+    role: &str,
+    known: Option<&Wavefront>,
+) -> Result<Vec<Cell>, PlanError> {
+    let check = || ctx.check();
+    match descend_on(
+        problem.grid,
+        field,
+        problem.start,
+        problem.goal,
+        &check,
+        known,
+    )? {
         Ok(path) => {
             match field.attraction {
                 Attraction::Paper => {

@@ -331,9 +331,41 @@ pub fn descend_checked(
     goal: Cell,
     check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
 ) -> Result<Result<ApfPath, ApfFailure>, crate::planner::PlanError> {
+    descend_on(grid, params, start, goal, check, None)
+}
+
+/// [`descend_checked`] on a [`Wavefront`] the caller already has for this start and goal (the
+/// colonies' guidance), so that it is not searched twice; `None` searches it here.
+pub fn descend_on(
+    grid: &PlanningGrid,
+    params: &ApfParams,
+    start: Cell,
+    goal: Cell,
+    check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
+    known: Option<&Wavefront>,
+) -> Result<Result<ApfPath, ApfFailure>, crate::planner::PlanError> {
     Ok(match params.attraction {
         Attraction::Paper => descend_with(grid, params, start, goal, true),
-        Attraction::Navigation => descend_navigation(grid, params, start, goal, check)?,
+        Attraction::Navigation => {
+            let searched;
+            let d = match known {
+                Some(d) => d,
+                None => match wavefront(grid, start, goal, check)? {
+                    Some(d) => {
+                        searched = d;
+                        &searched
+                    }
+                    None => {
+                        return Ok(Err(ApfFailure {
+                            reason: "the goal is not reachable from the start".into(),
+                            steps: 0,
+                            escapes: 0,
+                        }))
+                    }
+                },
+            };
+            descend_navigation(grid, params, start, goal, d)
+        }
     })
 }
 
@@ -348,7 +380,7 @@ pub fn descend_checked(
 /// settled holds an upper bound set from a settled parent with a smaller one. Either way each
 /// reached cell other than the goal has a neighbour strictly closer, which is all the descent
 /// needs to reach the goal without stalling.
-struct Wavefront {
+pub struct Wavefront {
     d: Vec<f64>,
     /// Whether `d[i]` is set. Both tables start all-zero (untouched zero pages): the search pays
     /// for the cells it reaches, not for the map.
@@ -357,7 +389,7 @@ struct Wavefront {
 
 impl Wavefront {
     /// The distance of cell index `i`, infinite where the search did not reach.
-    fn at(&self, i: usize) -> f64 {
+    pub fn at(&self, i: usize) -> f64 {
         if self.reached[i] {
             self.d[i]
         } else {
@@ -368,7 +400,7 @@ impl Wavefront {
 
 /// The [`Wavefront`] from `goal`; `None` when `start` is not connected to `goal`. Polls `check`
 /// every 4096 cells.
-fn wavefront(
+pub fn wavefront(
     grid: &PlanningGrid,
     start: Cell,
     goal: Cell,
@@ -451,15 +483,8 @@ fn descend_navigation(
     params: &ApfParams,
     start: Cell,
     goal: Cell,
-    check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
-) -> Result<Result<ApfPath, ApfFailure>, crate::planner::PlanError> {
-    let Some(d) = wavefront(grid, start, goal, check)? else {
-        return Ok(Err(ApfFailure {
-            reason: "the goal is not reachable from the start".into(),
-            steps: 0,
-            escapes: 0,
-        }));
-    };
+    d: &Wavefront,
+) -> Result<ApfPath, ApfFailure> {
     let info = grid.info();
     let field = PotentialField::new(grid, params, goal.center());
     let potential = |c: Cell| {
@@ -486,11 +511,11 @@ fn descend_navigation(
         cells.push(next);
         cur = next;
     }
-    Ok(Ok(ApfPath {
+    Ok(ApfPath {
         cells,
         escapes: 0,
         wavefront_steps,
-    }))
+    })
 }
 
 /// The same, with escapes switched off: the plain APF that stalls in a U trap (for comparison
