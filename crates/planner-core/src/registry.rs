@@ -220,8 +220,8 @@ mod tests {
     fn a_goal_in_the_start_cell_gets_the_trivial_path_from_every_planner() {
         use crate::driver::Termination;
         use crate::geometry::Point2;
-        use crate::planner::{solve, PlanContext, Query, SolveOptions};
-        use crate::test_support::{grid_from_rows, rng};
+        use crate::planner::Query;
+        use crate::test_support::{grid_from_rows, solve_seeded};
         let grid = grid_from_rows(&["....", "....", "...."]);
         for (start, goal) in [
             (Point2::new(1.2, 1.3), Point2::new(1.7, 1.9)),
@@ -238,15 +238,8 @@ mod tests {
                     ..PlannerConfig::default()
                 })
                 .unwrap();
-                let mut r = rng(1);
-                let plan = solve(
-                    planner.as_ref(),
-                    &grid,
-                    &q,
-                    SolveOptions::default(),
-                    &mut PlanContext::never_interrupted(&mut r),
-                )
-                .unwrap_or_else(|e| panic!("{name}: {e}"));
+                let plan = solve_seeded(planner.as_ref(), &grid, &q, 1)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
                 assert_eq!(plan.waypoints.first(), Some(&start), "{name}");
                 assert_eq!(plan.waypoints.last(), Some(&goal), "{name}");
                 assert!(plan.waypoints.len() <= 2, "{name}");

@@ -54,3 +54,22 @@ pub fn random_grid(seed: u64, w: usize, h: usize, density: f64) -> (PlanningGrid
         goal,
     )
 }
+
+/// `planner`'s plan for `query` on `grid` with the default options, its random choices from
+/// `seed`, never interrupted: what most planner tests ask.
+pub fn solve_seeded(
+    planner: &dyn crate::planner::Planner,
+    grid: &PlanningGrid,
+    query: &crate::planner::Query,
+    seed: u64,
+) -> Result<crate::planner::Plan, crate::planner::PlanError> {
+    use crate::planner::{solve, PlanContext, SolveOptions};
+    let mut r = rng(seed);
+    solve(
+        planner,
+        grid,
+        query,
+        SolveOptions::default(),
+        &mut PlanContext::never_interrupted(&mut r),
+    )
+}

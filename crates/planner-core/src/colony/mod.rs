@@ -800,21 +800,14 @@ mod tests {
         variant: ColonyVariant,
         params: ColonyParams,
     ) -> Result<crate::planner::Plan, PlanError> {
-        use crate::planner::{solve, SolveOptions};
+        use crate::test_support::solve_seeded;
         let (grid, q) = hall(pillars);
         let planner = ColonyPlanner {
             variant,
             params,
             apf: ApfParams::default(),
         };
-        let mut r = crate::test_support::rng(5);
-        solve(
-            &planner,
-            &grid,
-            &q,
-            SolveOptions::default(),
-            &mut PlanContext::never_interrupted(&mut r),
-        )
+        solve_seeded(&planner, &grid, &q, 5)
     }
 
     /// The original ACO's heuristic (`1/d_ij`) carries no goal: across a hall 160 cells wide no
@@ -861,8 +854,8 @@ mod tests {
 
     #[test]
     fn every_colony_finds_a_collision_free_path_and_is_deterministic() {
-        use crate::planner::{solve, Query, SolveOptions};
-        use crate::test_support::{grid_from_rows, rng};
+        use crate::planner::Query;
+        use crate::test_support::{grid_from_rows, solve_seeded};
         let grid = grid_from_rows(&[
             "..........",
             "...####...",
@@ -889,17 +882,7 @@ mod tests {
                 },
                 apf: ApfParams::default(),
             };
-            let run = |seed| {
-                let mut r = rng(seed);
-                solve(
-                    &planner,
-                    &grid,
-                    &q,
-                    SolveOptions::default(),
-                    &mut PlanContext::never_interrupted(&mut r),
-                )
-                .unwrap()
-            };
+            let run = |seed| solve_seeded(&planner, &grid, &q, seed).unwrap();
             let plan = run(3);
             assert!(plan.metrics.collision_free, "{}", variant.name());
             let again = run(3);

@@ -752,7 +752,8 @@ mod tests {
 
     #[test]
     fn both_planners_find_valid_paths_deterministically() {
-        use crate::planner::{solve, Query, SolveOptions};
+        use crate::planner::Query;
+        use crate::test_support::solve_seeded;
         let grid = grid_from_rows(&[
             "..........",
             "...####...",
@@ -771,17 +772,7 @@ mod tests {
                 params: GaParams::default(),
                 apf: crate::field::ApfParams::default(),
             };
-            let run = |seed| {
-                let mut r = rng(seed);
-                solve(
-                    &planner,
-                    &grid,
-                    &q,
-                    SolveOptions::default(),
-                    &mut PlanContext::never_interrupted(&mut r),
-                )
-                .unwrap()
-            };
+            let run = |seed| solve_seeded(&planner, &grid, &q, seed).unwrap();
             let plan = run(5);
             assert!(plan.metrics.collision_free, "{}", variant.name());
             assert_eq!(

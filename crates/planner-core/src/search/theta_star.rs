@@ -164,8 +164,8 @@ mod tests {
     use crate::geometry::Pose2;
     use crate::grid::metrics::measure;
     use crate::grid::MapInfo;
-    use crate::planner::{solve, Query, SolveOptions};
-    use crate::test_support::rng;
+    use crate::planner::Query;
+    use crate::test_support::solve_seeded;
 
     /// A 1.6 m wide corridor, start and goal 0.5 m off its lower wall: by length, Theta* runs
     /// straight along the wall; weighing the cost, it moves towards the middle (more clearance,
@@ -190,15 +190,7 @@ mod tests {
             let planner = ThetaStar {
                 cost_travel_multiplier: m,
             };
-            let mut r = rng(0);
-            let plan = solve(
-                &planner,
-                &grid,
-                &q,
-                SolveOptions::default(),
-                &mut PlanContext::never_interrupted(&mut r),
-            )
-            .unwrap();
+            let plan = solve_seeded(&planner, &grid, &q, 0).unwrap();
             assert!(plan.metrics.collision_free);
             assert_eq!(plan.waypoints[0], q.start);
             assert_eq!(*plan.waypoints.last().unwrap(), q.goal);

@@ -868,19 +868,10 @@ mod tests {
 
     /// The chosen path and front of `planner` on [`pillar_room`] with `config`, seed 3.
     fn plan_in_pillar_room(config: &crate::config::PlannerConfig) -> crate::planner::Plan {
-        use crate::planner::{solve, PlanContext, SolveOptions};
-        use crate::test_support::rng;
+        use crate::test_support::solve_seeded;
         let (grid, q) = pillar_room();
         let planner = crate::registry::build(config).unwrap();
-        let mut r = rng(3);
-        let plan = solve(
-            planner.as_ref(),
-            &grid,
-            &q,
-            SolveOptions::default(),
-            &mut PlanContext::never_interrupted(&mut r),
-        )
-        .unwrap();
+        let plan = solve_seeded(planner.as_ref(), &grid, &q, 3).unwrap();
         assert!(plan.metrics.collision_free);
         plan
     }
