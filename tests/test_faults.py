@@ -37,8 +37,9 @@ PARAMS = (
     "patrol_planner:\n  ros__parameters:\n"
     f"    map_yaml: {ROOT / 'config' / 'maps' / 'datacenter_100.yaml'}\n"
     "    follow_plan: false\n    planner: astar\n    tolerance: 0.0\n    max_planning_time: 5.0\n"
-    # A swarm that runs until max_planning_time: the slow plan the mid-plan map classes need.
-    "    swarm: {iterations: 1000000}\n"
+    # A swarm that runs until max_planning_time: the slow plan the mid-plan map classes need
+    # (a million iterations, and no patience rule to end it early).
+    "    swarm: {iterations: 1000000, patience: 0}\n"
 )
 BARE_PARAMS = "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
 

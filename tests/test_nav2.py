@@ -18,8 +18,8 @@ from test_node import assert_collision_free, build_test_map, grid_msg, world
 PARAMS = (
     "patrol_planner:\n  ros__parameters:\n"
     "    map_yaml: ''\n    follow_plan: false\n    planner: astar\n    max_planning_time: 60.0\n"
-    # A swarm slow enough to cancel: a million iterations.
-    "    swarm: {iterations: 1000000}\n"
+    # A swarm slow enough to cancel: a million iterations, no patience rule to end it early.
+    "    swarm: {iterations: 1000000, patience: 0}\n"
 )
 
 
