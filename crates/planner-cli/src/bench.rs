@@ -86,8 +86,9 @@ pub struct Row {
     pub reference_length_m: Option<f64>,
     /// False only where A* (seed 0) answered NO_VALID_PATH: there every planner should too.
     pub astar_found_path: bool,
-    /// Runs whose chosen path differs from the planner's seed path (population planners that
-    /// report it).
+    /// Runs whose answer is better than the planner's seed path: shorter or smoother, worse on
+    /// neither, both finished alike (counter `improved_on_seed`, from the planners that start
+    /// from a seed).
     pub improved_on_seed: Option<u64>,
     /// Runs whose potential field (the path of `apf`/`eapf`, the seed of the others) could not
     /// reach the goal by its own descent, so that A* stood in (counter `apf_fallback`).

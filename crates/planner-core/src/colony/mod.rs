@@ -11,8 +11,9 @@
 //!
 //! Shared by all three: ants walk the same 8-neighbour moves as A* (no corner cutting), choose
 //! by eq. 13's roulette (`tau^alpha * eta^beta`), never revisit a cell, and are dropped (and
-//! counted) when boxed in or past a step budget; the local update eq. 19 follows every step. A run
-//! stops after `iterations`, after `patience` iterations without a shorter path, or when
+//! counted) when boxed in or past a step budget (or, under `judge: pulled`, once a walk is too
+//! long to become the best); the local update eq. 19 follows every step. A run
+//! stops after `iterations`, after `patience` iterations without a better best, or when
 //! interrupted (then the best path so far comes back). The delete operation (genetic algorithm
 //! paper 4.5) is applied to the returned path by default: colony paths are staircases.
 //!
@@ -95,9 +96,10 @@ pub struct ColonyParams {
     /// staircases are a little longer but straighten better are what it can find.
     pub judge: Judge,
     /// Beyond the papers: `navigation` (default) multiplies every move's heuristic by
-    /// `delta^((D_i - D_j) / d_ij)`, `D` the wavefront distance to the goal through free space
-    /// (the field's navigation function, [`crate::field::wavefront`]): 1/delta uphill, delta
-    /// straight downhill, whatever the map's size. The papers' heuristics carry the goal only as
+    /// `delta^(2 (D_i - D_j) / d_ij)`, `D` the wavefront distance to the goal through free space
+    /// (the field's navigation function, [`crate::field::wavefront`]): 1/delta^2 uphill, delta^2
+    /// straight downhill, whatever the map's size (squared so that it outweighs eq. 16's term
+    /// where the two disagree). The papers' heuristics carry the goal only as
     /// `1/d(j, goal)`, whose ratio between two neighbours tends to 1 a few hundred cells away,
     /// and the original ACO's `1/d_ij` not at all: on large maps their ants wandered until the
     /// step budget (issue 12: `aco` 0 of 20 on datacenter_100, none on the ROS maps). `paper`
@@ -489,9 +491,11 @@ impl<'a> Colony<'a> {
     }
 
     /// Under [`Judge::Pulled`]: the iteration's finished walks (with their cell lengths), of
-    /// which the [`PULLED_PER_ITERATION`] shortest are straightened by the delete operation and
-    /// the first that is shorter or smoother than the best answer so far, and worse on neither,
-    /// becomes the best-so-far. Straightening every ant was most of the colony's time on a large
+    /// which the [`PULLED_PER_ITERATION`] shortest are straightened by the delete operation
+    /// (on cell centres: `solve` also pins the exact ends) and each in turn that is shorter or
+    /// smoother than the best answer so far, and worse on neither, becomes the best-so-far.
+    /// The convergence value is the answer's length alone, so a gain in turning only does not
+    /// hold the patience rule off. Straightening every ant was most of the colony's time on a large
     /// map (each is a line-of-sight pass over the walk); the shortest staircases are the ones
     /// whose straightened paths are shortest.
     fn judge_pulled(&mut self, mut walks: Vec<(Vec<Cell>, f64)>) {
@@ -520,9 +524,9 @@ impl<'a> Colony<'a> {
         self.walk.push(cur);
         self.visited[info.index(cur)] = self.stamp;
         // Under the pulled judge a walk longer than STAIRCASE_STRETCH x the best answer is
-        // taken not to straighten into a shorter one (the shortest staircase between two
-        // corners is at most that much longer than the straight segment): the ant gives up
-        // there instead of wandering on to the map-sized step budget.
+        // taken not to straighten into a shorter one. A heuristic: the bound holds for the
+        // shortest staircase between two corners, a wandering walk may straighten more. The ant
+        // gives up there (counted as dropped) instead of wandering on to the map-sized budget.
         let limit = match (p.judge, self.best_pulled) {
             (Judge::Pulled, Some((best_len, _))) => STAIRCASE_STRETCH * best_len + 1e-9,
             _ => f64::INFINITY,
