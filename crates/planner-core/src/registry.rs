@@ -253,19 +253,11 @@ mod tests {
     /// tolerance (the plan starts there); beyond it, or with tolerance 0, START_OCCUPIED.
     #[test]
     fn a_start_in_the_inflated_band_moves_to_free_space_within_the_tolerance() {
-        use crate::geometry::{Point2, Pose2};
-        use crate::grid::{MapInfo, PlanningGrid};
+        use crate::geometry::Point2;
         use crate::planner::{solve, PlanContext, PlanError, Query, SolveOptions};
-        use crate::test_support::rng;
+        use crate::test_support::{grid_with, rng};
         // 40 x 20 cells of 0.1 m, a wall along row 0, inflated by 0.3 m.
-        let info = MapInfo {
-            width: 40,
-            height: 20,
-            resolution: 0.1,
-            origin: Pose2::default(),
-        };
-        let obstacle: Vec<bool> = (0..800).map(|i| i / 40 == 0).collect();
-        let grid = PlanningGrid::from_obstacles(info, obstacle, 0.3);
+        let grid = grid_with((40, 20), 0.1, 0.3, |_, y| y == 0);
         let q = Query {
             start: Point2::new(1.05, 0.25), // 0.2 m from the wall: in the band (free from 0.45 m)
             goal: Point2::new(3.05, 1.55),

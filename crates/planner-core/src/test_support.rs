@@ -10,24 +10,32 @@ pub fn rng(seed: u64) -> PlannerRng {
     PlannerRng::seed_from_u64(seed)
 }
 
+/// A `w` x `h` grid of `resolution` m cells at the origin, cell (x, y) blocked where `blocked`
+/// says (y up, as the map's cells count), obstacles grown by `inflate` m.
+pub fn grid_with(
+    (w, h): (usize, usize),
+    resolution: f64,
+    inflate: f64,
+    blocked: impl Fn(usize, usize) -> bool,
+) -> PlanningGrid {
+    let obstacle = (0..w * h).map(|i| blocked(i % w, i / w)).collect();
+    let info = MapInfo {
+        width: w as u32,
+        height: h as u32,
+        resolution,
+        origin: Pose2::default(),
+    };
+    PlanningGrid::from_obstacles(info, obstacle, inflate)
+}
+
 /// A grid from text rows listed top to bottom (`#` blocked, anything else free), 1 m cells, no
 /// inflation: the picture in the source reads like the map.
 pub fn grid_from_rows(rows: &[&str]) -> PlanningGrid {
     let (w, h) = (rows[0].len(), rows.len());
-    let mut obstacle = vec![false; w * h];
-    for (r, row) in rows.iter().enumerate() {
-        assert_eq!(row.len(), w, "ragged test map");
-        for (x, ch) in row.bytes().enumerate() {
-            obstacle[(h - 1 - r) * w + x] = ch == b'#';
-        }
-    }
-    let info = MapInfo {
-        width: w as u32,
-        height: h as u32,
-        resolution: 1.0,
-        origin: Pose2::default(),
-    };
-    PlanningGrid::from_obstacles(info, obstacle, 0.0)
+    assert!(rows.iter().all(|r| r.len() == w), "ragged test map");
+    grid_with((w, h), 1.0, 0.0, |x, y| {
+        rows[h - 1 - y].as_bytes()[x] == b'#'
+    })
 }
 
 /// A seeded random grid (1 m cells, no inflation) with two distinct free cells as start and goal.
@@ -42,17 +50,8 @@ pub fn random_grid(seed: u64, w: usize, h: usize, density: f64) -> (PlanningGrid
     for c in [start, goal] {
         obstacle[c.y as usize * w + c.x as usize] = false;
     }
-    let info = MapInfo {
-        width: w as u32,
-        height: h as u32,
-        resolution: 1.0,
-        origin: Pose2::default(),
-    };
-    (
-        PlanningGrid::from_obstacles(info, obstacle, 0.0),
-        start,
-        goal,
-    )
+    let grid = grid_with((w, h), 1.0, 0.0, |x, y| obstacle[y * w + x]);
+    (grid, start, goal)
 }
 
 /// `planner`'s plan for `query` on `grid` with the default options, its random choices from

@@ -256,19 +256,9 @@ mod tests {
     /// in length.
     #[test]
     fn cost_aware_astar_keeps_to_the_middle_of_a_corridor() {
-        use crate::geometry::Pose2;
         use crate::grid::metrics::{measure, path_length};
-        use crate::grid::{MapInfo, PlanningGrid};
         // 60 x 11 cells of 0.1 m: walls on rows 0 and 10, a corridor 0.9 m wide between.
-        let (w, h) = (60usize, 11usize);
-        let obstacle: Vec<bool> = (0..w * h).map(|i| i / w == 0 || i / w == h - 1).collect();
-        let info = MapInfo {
-            width: w as u32,
-            height: h as u32,
-            resolution: 0.1,
-            origin: Pose2::default(),
-        };
-        let grid = PlanningGrid::from_obstacles(info, obstacle, 0.15);
+        let grid = crate::test_support::grid_with((60, 11), 0.1, 0.15, |_, y| y == 0 || y == 10);
         let (start, goal) = (Cell::new(1, 2), Cell::new(58, 2));
         let mut r = rng(0);
         let ctx = PlanContext::never_interrupted(&mut r);

@@ -161,26 +161,16 @@ impl Planner for ThetaStar {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Pose2;
     use crate::grid::metrics::measure;
-    use crate::grid::MapInfo;
     use crate::planner::Query;
-    use crate::test_support::solve_seeded;
+    use crate::test_support::{grid_with, solve_seeded};
 
     /// A 1.6 m wide corridor, start and goal 0.5 m off its lower wall: by length, Theta* runs
     /// straight along the wall; weighing the cost, it moves towards the middle (more clearance,
     /// less cost) for a little more length. Both are collision-free and end where asked.
     #[test]
     fn weighing_the_cost_keeps_to_the_middle_of_a_corridor() {
-        let (w, h) = (120usize, 20usize);
-        let info = MapInfo {
-            width: w as u32,
-            height: h as u32,
-            resolution: 0.1,
-            origin: Pose2::default(),
-        };
-        let obstacle: Vec<bool> = (0..w * h).map(|i| i / w == 0 || i / w == h - 1).collect();
-        let grid = PlanningGrid::from_obstacles(info, obstacle, 0.25);
+        let grid = grid_with((120, 20), 0.1, 0.25, |_, y| y == 0 || y == 19);
         let q = Query {
             start: Point2::new(0.55, 0.55),
             goal: Point2::new(11.45, 0.55),

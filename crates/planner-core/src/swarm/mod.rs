@@ -838,26 +838,14 @@ mod tests {
     /// 8 m x 4 m at 0.1 m, walled, a 1.2 m x 1.2 m pillar in the middle; obstacles grown 0.3 m;
     /// a query from one corner to the other.
     fn pillar_room() -> (PlanningGrid, crate::planner::Query) {
-        use crate::geometry::{Point2, Pose2};
-        use crate::grid::MapInfo;
-        let (w, h) = (80usize, 40usize);
-        let info = MapInfo {
-            width: w as u32,
-            height: h as u32,
-            resolution: 0.1,
-            origin: Pose2::default(),
-        };
-        let obstacle: Vec<bool> = (0..w * h)
-            .map(|i| {
-                let (x, y) = (i % w, i / w);
-                x == 0
-                    || y == 0
-                    || x == w - 1
-                    || y == h - 1
-                    || ((34..46).contains(&x) && (14..26).contains(&y))
-            })
-            .collect();
-        let grid = PlanningGrid::from_obstacles(info, obstacle, 0.3);
+        use crate::geometry::Point2;
+        let grid = crate::test_support::grid_with((80, 40), 0.1, 0.3, |x, y| {
+            x == 0
+                || y == 0
+                || x == 79
+                || y == 39
+                || ((34..46).contains(&x) && (14..26).contains(&y))
+        });
         let q = crate::planner::Query {
             start: Point2::new(0.6, 0.7),
             goal: Point2::new(7.4, 3.3),
