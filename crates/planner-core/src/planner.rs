@@ -11,7 +11,7 @@
 use crate::driver::{Iteration, Termination};
 use crate::geometry::{Cell, Point2};
 use crate::grid::inflation::PlanningGrid;
-use crate::grid::metrics::{drop_collinear, measure, PathMetrics};
+use crate::grid::metrics::{drop_collinear, measure, path_length, total_turning, PathMetrics};
 use crate::grid::raycast::{line_of_sight, path_is_free};
 use crate::grid::smoothing::delete_redundant;
 use crate::registry::PlannerName;
@@ -286,11 +286,13 @@ pub fn solve(
         .smoothing
         .unwrap_or_else(|| planner.smooth_by_default());
     let waypoints = finish_path(grid, &problem, raw.waypoints, smoothing)?;
+    let metrics = measure(grid, &waypoints);
     if let Some(seed) = raw.seed.take() {
         // The seed gets the same post-processing as the answer, so that the delete operation of
         // the colonies and the GA is not counted as the search's improvement.
         if let Ok(seed) = finish_path(grid, &problem, seed, smoothing) {
-            let better = improves_on(&measure(grid, &seed), &measure(grid, &waypoints));
+            let seed = (path_length(&seed) * grid.resolution(), total_turning(&seed));
+            let better = improves_on(seed, (metrics.length_m, metrics.turning_rad));
             raw.stats
                 .counters
                 .insert("improved_on_seed".into(), if better { 1.0 } else { 0.0 });
@@ -317,7 +319,7 @@ pub fn solve(
         .collect();
     Ok(Plan {
         planner: planner.name(),
-        metrics: measure(grid, &waypoints),
+        metrics,
         waypoints: to_world(&waypoints),
         stats: raw.stats,
         pareto,
@@ -326,14 +328,14 @@ pub fn solve(
     })
 }
 
-/// Whether `answer` is better than `seed` the way issue 12 counts it: shorter or smoother, and
-/// worse on neither (a relative tolerance of 1e-9 absorbs rounding).
-pub fn improves_on(seed: &PathMetrics, answer: &PathMetrics) -> bool {
+/// Whether `answer` is better than `seed`, each as (length, turning) in one unit of length, the
+/// way issue 12 counts it: shorter or smoother, and worse on neither (a relative tolerance of
+/// 1e-9 absorbs rounding). The answer against its seed (`solve`), and an ant's straightened
+/// walk against the best so far (the colonies' pulled judge).
+pub fn improves_on((seed_len, seed_turn): (f64, f64), (len, turn): (f64, f64)) -> bool {
     let tol = |v: f64| 1e-9 * v.abs().max(1.0);
-    let no_worse = answer.length_m <= seed.length_m + tol(seed.length_m)
-        && answer.turning_rad <= seed.turning_rad + tol(seed.turning_rad);
-    let better = answer.length_m < seed.length_m - tol(seed.length_m)
-        || answer.turning_rad < seed.turning_rad - tol(seed.turning_rad);
+    let no_worse = len <= seed_len + tol(seed_len) && turn <= seed_turn + tol(seed_turn);
+    let better = len < seed_len - tol(seed_len) || turn < seed_turn - tol(seed_turn);
     no_worse && better
 }
 
@@ -455,35 +457,27 @@ fn finish_path(
 mod tests {
     use super::*;
 
-    fn metrics(length_m: f64, turning_rad: f64) -> PathMetrics {
-        PathMetrics {
-            length_m,
-            turning_rad,
-            turns: 0,
-            min_clearance_m: 1.0,
-            mean_clearance_m: 1.0,
-            path_cost: 0.0,
-            collision_free: true,
-        }
+    fn metrics(length_m: f64, turning_rad: f64) -> (f64, f64) {
+        (length_m, turning_rad)
     }
 
     /// Issue 12's rule: shorter or smoother, worse on neither; equal is not an improvement.
     #[test]
     fn improvement_on_the_seed_is_better_on_one_and_worse_on_neither() {
         let seed = metrics(10.0, 2.0);
-        assert!(improves_on(&seed, &metrics(9.5, 2.0)));
-        assert!(improves_on(&seed, &metrics(10.0, 1.0)));
-        assert!(improves_on(&seed, &metrics(9.0, 1.0)));
-        assert!(!improves_on(&seed, &metrics(10.0, 2.0)));
+        assert!(improves_on(seed, metrics(9.5, 2.0)));
+        assert!(improves_on(seed, metrics(10.0, 1.0)));
+        assert!(improves_on(seed, metrics(9.0, 1.0)));
+        assert!(!improves_on(seed, metrics(10.0, 2.0)));
         assert!(
-            !improves_on(&seed, &metrics(9.0, 2.5)),
+            !improves_on(seed, metrics(9.0, 2.5)),
             "shorter but turns more"
         );
         assert!(
-            !improves_on(&seed, &metrics(10.5, 0.5)),
+            !improves_on(seed, metrics(10.5, 0.5)),
             "smoother but longer"
         );
         // Rounding noise is neither better nor worse.
-        assert!(!improves_on(&seed, &metrics(10.0 + 1e-12, 2.0 - 1e-12)));
+        assert!(!improves_on(seed, metrics(10.0 + 1e-12, 2.0 - 1e-12)));
     }
 }

@@ -484,10 +484,9 @@ impl<'a> Colony<'a> {
         walks.sort_by(|a, b| a.1.total_cmp(&b.1));
         for (cells, len) in walks.into_iter().take(PULLED_PER_ITERATION) {
             let (l, t) = pulled(self.problem.grid, &cells);
-            let better = self.best_pulled.is_none_or(|(bl, bt)| {
-                let eps = 1e-9;
-                l <= bl + eps && t <= bt + eps && (l < bl - eps || t < bt - eps)
-            });
+            let better = self
+                .best_pulled
+                .is_none_or(|best| crate::planner::improves_on(best, (l, t)));
             if better {
                 self.best_pulled = Some((l, t));
                 self.best = Some((cells, len));

@@ -510,21 +510,17 @@ impl Population for Swarm<'_> {
                         let run = ctx.rng.random_range(1..=n);
                         let from = ctx.rng.random_range(0..=n - run);
                         search.enc.smooth(&mut c, from, from + run, 0.5);
-                        search.clamp(&mut c);
-                        let e = search.evaluate(&c);
-                        search.offer(&mut self.archive, &mut self.best, &c, e);
-                        candidates.push((c, e));
-                        continue;
-                    }
-                    let changes = ((p.cdc * dim as f64).round() as usize).max(1);
-                    for _ in 0..changes {
-                        let d = ctx.rng.random_range(0..dim);
-                        let sigma = p.srd * search.range[d];
-                        let jump = match (variant.improved(), p.mutation) {
-                            (true, Mutation::Cauchy) => self.cauchy.sample(ctx.rng),
-                            _ => ctx.rng.random_range(-1.0..=1.0),
-                        };
-                        c[d] += sigma * jump;
+                    } else {
+                        let changes = ((p.cdc * dim as f64).round() as usize).max(1);
+                        for _ in 0..changes {
+                            let d = ctx.rng.random_range(0..dim);
+                            let sigma = p.srd * search.range[d];
+                            let jump = match (variant.improved(), p.mutation) {
+                                (true, Mutation::Cauchy) => self.cauchy.sample(ctx.rng),
+                                _ => ctx.rng.random_range(-1.0..=1.0),
+                            };
+                            c[d] += sigma * jump;
+                        }
                     }
                     search.clamp(&mut c);
                     let e = search.evaluate(&c);
