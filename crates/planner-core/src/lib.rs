@@ -36,6 +36,7 @@ pub mod field;
 pub mod genetic;
 pub mod geometry;
 pub mod grid;
+pub mod judge;
 pub mod params;
 pub mod planner;
 pub mod registry;

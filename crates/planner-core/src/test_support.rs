@@ -1,6 +1,6 @@
 //! Grids for unit and property tests.
 
-use crate::geometry::{Cell, Pose2};
+use crate::geometry::{Cell, Point2, Pose2};
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::MapInfo;
 use crate::planner::PlannerRng;
@@ -71,4 +71,25 @@ pub fn solve_seeded(
         SolveOptions::default(),
         &mut PlanContext::never_interrupted(&mut r),
     )
+}
+
+/// A 160 x 40 hall split by a wall with a gap at its top, start and goal in the two far
+/// bottom corners; or (`pillars`) a 100 x 60 hall with 2 x 2 pillars every 9 cells, start
+/// and goal in opposite corners.
+pub fn hall(pillars: bool) -> (PlanningGrid, crate::planner::Query) {
+    let (w, h) = if pillars { (100, 60) } else { (160, 40) };
+    let blocked = |x: usize, y: usize| {
+        if pillars {
+            x % 9 >= 4 && x % 9 < 6 && y % 9 >= 4 && y % 9 < 6
+        } else {
+            x == 80 && y < 32
+        }
+    };
+    let goal = (w as f64 - 1.5, if pillars { h as f64 - 1.5 } else { 1.5 });
+    let q = crate::planner::Query {
+        start: Point2::new(1.5, 1.5),
+        goal: Point2::new(goal.0, goal.1),
+        tolerance: 0.0,
+    };
+    (grid_with((w, h), 1.0, 0.0, blocked), q)
 }

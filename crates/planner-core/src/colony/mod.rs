@@ -36,9 +36,8 @@ pub mod pheromone;
 use crate::driver::{drive, Budget, Population};
 use crate::field::{wavefront, ApfParams, PotentialField, Wavefront};
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
-use crate::grid::metrics::{path_length, total_turning};
-use crate::grid::smoothing::delete_redundant;
 use crate::grid::{MapInfo, PlanningGrid};
+use crate::judge::{PulledBest, STAIRCASE_STRETCH};
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
 use crate::registry::PlannerName;
@@ -227,19 +226,8 @@ pub fn eta_force(force: Vector2, dir: Vector2, delta: f64) -> f64 {
     delta.powf(force.dot(&dir) / (f * d))
 }
 
-/// The most an 8-connected shortest staircase is longer than the straight segment between its
-/// ends: octile over Euclidean distance, largest at 22.5 degrees (cos + (sqrt 2 - 1) sin).
-const STAIRCASE_STRETCH: f64 = 1.082_392_200_292_394;
-
 /// How many of an iteration's finished walks [`Judge::Pulled`] straightens.
 const PULLED_PER_ITERATION: usize = 3;
-
-/// Length (cells) and turning (rad) of a cell path after the delete operation.
-fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
-    let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
-    let pulled = delete_redundant(grid, &pts);
-    (path_length(&pulled), total_turning(&pulled))
-}
 
 /// Eq. 13: the probability of each candidate from its pheromone and heuristic.
 pub fn transition_probabilities(tau: &[f64], eta: &[f64], alpha: f64, beta: f64) -> Vec<f64> {
@@ -342,7 +330,7 @@ struct Colony<'a> {
     /// The best-so-far ant's cells and length (cells).
     best: Option<(Vec<Cell>, f64)>,
     /// Under [`Judge::Pulled`], the best-so-far's length and turning after the delete operation.
-    best_pulled: Option<(f64, f64)>,
+    best_pulled: PulledBest,
     /// The navigation function of [`Guidance::Navigation`], searched at `init`.
     nav: Option<Wavefront>,
     /// The field's path the improved colony starts from (grid coordinates), for the answer's
@@ -391,7 +379,7 @@ impl<'a> Colony<'a> {
                 )
             },
             best: None,
-            best_pulled: None,
+            best_pulled: PulledBest::default(),
             nav: None,
             seed: None,
             steps,
@@ -467,6 +455,7 @@ impl<'a> Colony<'a> {
     fn best_value(&self) -> f64 {
         let cells = self.best.as_ref().map(|b| b.1);
         self.best_pulled
+            .get()
             .map(|b| b.0)
             .or(cells)
             .map_or(f64::INFINITY, |len| len * self.info.resolution)
@@ -483,12 +472,7 @@ impl<'a> Colony<'a> {
     fn judge_pulled(&mut self, mut walks: Vec<(Vec<Cell>, f64)>) {
         walks.sort_by(|a, b| a.1.total_cmp(&b.1));
         for (cells, len) in walks.into_iter().take(PULLED_PER_ITERATION) {
-            let (l, t) = pulled(self.problem.grid, &cells);
-            let better = self
-                .best_pulled
-                .is_none_or(|best| crate::planner::improves_on(best, (l, t)));
-            if better {
-                self.best_pulled = Some((l, t));
+            if self.best_pulled.offer(self.problem.grid, &cells) {
                 self.best = Some((cells, len));
             }
         }
@@ -508,7 +492,7 @@ impl<'a> Colony<'a> {
         // taken not to straighten into a shorter one. A heuristic: the bound holds for the
         // shortest staircase between two corners, a wandering walk may straighten more. The ant
         // gives up there (counted as dropped) instead of wandering on to the map-sized budget.
-        let limit = match (p.judge, self.best_pulled) {
+        let limit = match (p.judge, self.best_pulled.get()) {
             (Judge::Pulled, Some((best_len, _))) => STAIRCASE_STRETCH * best_len + 1e-9,
             _ => f64::INFINITY,
         };
@@ -591,7 +575,7 @@ impl Population for Colony<'_> {
             let len = cell_path_length(&cells);
             self.seed = Some(cells.iter().map(|c| c.center()).collect());
             if self.planner.params.judge == Judge::Pulled {
-                self.best_pulled = Some(pulled(self.problem.grid, &cells));
+                self.best_pulled.set(self.problem.grid, &cells);
             }
             self.best = Some((cells, len));
         }
@@ -759,34 +743,13 @@ mod tests {
         assert_eq!(adjustment_coefficient(100, 100), 0.0);
     }
 
-    /// A 160 x 40 hall split by a wall with a gap at its top, start and goal in the two far
-    /// bottom corners; or (`pillars`) a 100 x 60 hall with 2 x 2 pillars every 9 cells, start
-    /// and goal in opposite corners.
-    fn hall(pillars: bool) -> (PlanningGrid, crate::planner::Query) {
-        let (w, h) = if pillars { (100, 60) } else { (160, 40) };
-        let blocked = |x: usize, y: usize| {
-            if pillars {
-                x % 9 >= 4 && x % 9 < 6 && y % 9 >= 4 && y % 9 < 6
-            } else {
-                x == 80 && y < 32
-            }
-        };
-        let goal = (w as f64 - 1.5, if pillars { h as f64 - 1.5 } else { 1.5 });
-        let q = crate::planner::Query {
-            start: Point2::new(1.5, 1.5),
-            goal: Point2::new(goal.0, goal.1),
-            tolerance: 0.0,
-        };
-        (crate::test_support::grid_with((w, h), 1.0, 0.0, blocked), q)
-    }
-
     fn colony_plan(
         pillars: bool,
         variant: ColonyVariant,
         params: ColonyParams,
     ) -> Result<crate::planner::Plan, PlanError> {
         use crate::test_support::solve_seeded;
-        let (grid, q) = hall(pillars);
+        let (grid, q) = crate::test_support::hall(pillars);
         let planner = ColonyPlanner {
             variant,
             params,
