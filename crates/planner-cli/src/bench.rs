@@ -90,6 +90,9 @@ pub struct Row {
     /// neither, both finished alike (counter `improved_on_seed`, from the planners that start
     /// from a seed).
     pub improved_on_seed: Option<u64>,
+    /// Runs whose seed was already the straight segment from start to goal (counter
+    /// `seed_straight`): nothing improves on those, so they are the misses no search can avoid.
+    pub seed_straight: Option<u64>,
     /// Runs whose potential field (the path of `apf`/`eapf`, the seed of the others) could not
     /// reach the goal by its own descent, so that A* stood in (counter `apf_fallback`).
     pub apf_fallbacks: u64,
@@ -100,6 +103,16 @@ pub struct Row {
     pub hypervolume_median: Option<f64>,
     /// The first failure's reason, when a run failed.
     pub failure: Option<String>,
+}
+
+/// "improved/runs", and how many of the runs had a seed that was already the straight segment
+/// (which no answer improves on), when any had.
+fn improved_cell(improved: u64, runs: u64, straight: u64) -> String {
+    if straight > 0 {
+        format!("{improved}/{runs} ({straight} seed straight)")
+    } else {
+        format!("{improved}/{runs}")
+    }
 }
 
 /// The hypervolume's reference point, in units of A*'s path on the same query: each front
@@ -237,6 +250,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let (mut mean_clear, mut cost) = (vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
                 let mut improved: Option<u64> = None;
+                let mut straight: Option<u64> = None;
                 let mut volumes = Vec::new();
                 let mut fallbacks = 0u64;
                 let mut ends: std::collections::BTreeMap<String, u64> = Default::default();
@@ -269,6 +283,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                                 u64::from(plan.stats.counters.contains_key("apf_fallback"));
                             if let Some(v) = plan.stats.counters.get("improved_on_seed") {
                                 *improved.get_or_insert(0) += u64::from(*v > 0.0);
+                            }
+                            if let Some(v) = plan.stats.counters.get("seed_straight") {
+                                *straight.get_or_insert(0) += u64::from(*v > 0.0);
                             }
                             let end = plan
                                 .stats
@@ -308,6 +325,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     apf_fallbacks: fallbacks,
                     hypervolume_median: (!volumes.is_empty()).then(|| median(volumes)),
                     improved_on_seed: improved,
+                    seed_straight: straight,
                     terminations: ends
                         .iter()
                         .map(|(k, n)| format!("{k} x{n}"))
@@ -377,11 +395,15 @@ fn summary(s: &mut String, rows: &[Row]) {
             mean(&solvable.iter().filter_map(|r| get(r)).collect::<Vec<_>>())
         };
         let ratios: Vec<f64> = solvable.iter().filter_map(|r| r.time_vs_astar).collect();
-        let improved: Option<(u64, u64)> = solvable
+        let improved: Option<(u64, u64, u64)> = solvable
             .iter()
-            .filter_map(|r| r.improved_on_seed.map(|n| (n, r.successes)))
-            .reduce(|a, b| (a.0 + b.0, a.1 + b.1));
-        let _ = writeln!(
+            .filter_map(|r| {
+                r.improved_on_seed
+                    .map(|n| (n, r.successes, r.seed_straight.unwrap_or(0)))
+            })
+            .reduce(|a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        let _ =
+            writeln!(
             s,
             "| {map} | {planner} | {ok}/{} | {free} | {refused}/{} | {} | {} | {} | {} | {} | {} |",
             runs(&solvable),
@@ -390,7 +412,7 @@ fn summary(s: &mut String, rows: &[Row]) {
             f(avg(&|r| r.turning_rad_mean), 2),
             f(avg(&|r| r.mean_clearance_m_mean), 2),
             f((!ratios.is_empty()).then(|| median(ratios.clone())), 2),
-            improved.map_or("–".into(), |(n, d)| format!("{n}/{d}")),
+            improved.map_or("–".into(), |(n, d, straight)| improved_cell(n, d, straight)),
             f(
                 Some(
                     solvable
@@ -453,7 +475,10 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
         "Lengths in m (ratio: mean length / any-angle reference), turning in rad, times in ms \
          (ratio: median / A*'s median on the same query in the same run). Hypervolume: of the \
          final front's (length, turning), each divided by A*'s on the query (turning at least \
-         0.1 rad), below the reference point ({}, {}); the median over the runs.\n",
+         0.1 rad), below the reference point ({}, {}); the median over the runs. Improved on \
+         seed: runs whose answer is shorter or smoother than the planner's seed and worse on \
+         neither; \"seed straight\": runs whose seed was already the straight segment to the \
+         goal, which no answer improves on.\n",
         HV_REFERENCE.0, HV_REFERENCE.1
     );
     let _ = writeln!(
@@ -488,8 +513,9 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
             f(r.time_vs_astar, 2),
             f(r.iterations_mean, 0),
             f(r.best_iteration_mean, 1),
-            r.improved_on_seed
-                .map_or("–".into(), |n| format!("{n}/{}", r.successes)),
+            r.improved_on_seed.map_or("–".into(), |n| {
+                improved_cell(n, r.successes, r.seed_straight.unwrap_or(0))
+            }),
             f(r.hypervolume_median, 4),
             r.terminations,
         );

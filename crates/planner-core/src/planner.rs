@@ -122,7 +122,8 @@ pub struct RawPlan {
     pub pareto: Vec<ParetoMember>,
     /// The path the planner started from, for planners that improve on a seed (the swarms,
     /// NSGA-II, the improved colony, the seeded GA): [`solve`] finishes it as it finishes the
-    /// answer and records whether the answer is better (counter `improved_on_seed`).
+    /// answer and records whether the answer is better (counter `improved_on_seed`) and whether
+    /// the seed was already the straight segment, which nothing improves on (`seed_straight`).
     pub seed: Option<Vec<Point2>>,
 }
 
@@ -291,12 +292,20 @@ pub fn solve(
         // The seed gets the same post-processing as the answer, so that the delete operation of
         // the colonies and the GA is not counted as the search's improvement.
         if let Ok(seed) = finish_path(grid, &problem, seed, smoothing) {
+            // A seed that is one segment is the shortest path there is and has no turn: no
+            // answer can be better, and the count of such runs says how many misses were these.
+            let straight = seed.len() == 2;
             let seed = (path_length(&seed) * grid.resolution(), total_turning(&seed));
             let better = improves_on(seed, (metrics.length_m, metrics.turning_rad));
-            raw.stats
-                .counters
-                .insert("improved_on_seed".into(), if better { 1.0 } else { 0.0 });
-            if !better {
+            let counters = &mut raw.stats.counters;
+            counters.insert("improved_on_seed".into(), if better { 1.0 } else { 0.0 });
+            counters.insert("seed_straight".into(), if straight { 1.0 } else { 0.0 });
+            if straight {
+                raw.stats.notes.push(
+                    "the seed is already the straight segment to the goal: no path improves on it"
+                        .into(),
+                );
+            } else if !better {
                 raw.stats
                     .notes
                     .push("the answer is not better than the seed it started from".into());
