@@ -829,6 +829,32 @@ mod tests {
         assert_eq!(improved(GaJudge::Fitness), 0.0);
     }
 
+    /// In an empty room the seed straightens into the segment to the goal: nothing improves on
+    /// it, and `solve` says so (`seed_straight`), where among pillars it does not.
+    #[test]
+    fn a_straight_seed_is_counted_as_such() {
+        use crate::planner::Query;
+        use crate::test_support::{grid_with, hall, solve_seeded};
+        let planner = GaPlanner {
+            variant: GaVariant::Imga,
+            params: GaParams::default(),
+            apf: crate::field::ApfParams::default(),
+        };
+        let room = grid_with((40, 20), 1.0, 0.0, |_, _| false);
+        let q = Query {
+            start: Point2::new(2.5, 3.5),
+            goal: Point2::new(36.5, 15.5),
+            tolerance: 0.0,
+        };
+        let plan = solve_seeded(&planner, &room, &q, 1).unwrap();
+        assert_eq!(plan.stats.counters["seed_straight"], 1.0);
+        assert_eq!(plan.stats.counters["improved_on_seed"], 0.0);
+        assert_eq!(plan.waypoints.len(), 2, "the answer is the segment too");
+        let (pillars, q) = hall(true);
+        let plan = solve_seeded(&planner, &pillars, &q, 1).unwrap();
+        assert_eq!(plan.stats.counters["seed_straight"], 0.0);
+    }
+
     /// The ring is the square's border in row order, as a filter over the whole square gives it.
     #[test]
     fn ring_is_the_squares_border_in_row_order() {
