@@ -77,6 +77,9 @@ pub struct Row {
     pub mean_clearance_m_mean: Option<f64>,
     /// Mean over runs of the costmap cost integrated along each path (m).
     pub path_cost_mean: Option<f64>,
+    /// Mean over runs of the half-width of the corridors each path runs through (m): the most
+    /// mean clearance a path along them can have.
+    pub corridor_half_width_m_mean: Option<f64>,
     pub time_ms_median: f64,
     /// This planner's median time / A*'s median time on the same query, in this run.
     pub time_vs_astar: Option<f64>,
@@ -247,7 +250,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let mut times = Vec::new();
                 let (mut len, mut turn, mut turns, mut clear, mut iters, mut best_it) =
                     (vec![], vec![], vec![], vec![], vec![], vec![]);
-                let (mut mean_clear, mut cost) = (vec![], vec![]);
+                let (mut mean_clear, mut cost, mut half) = (vec![], vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
                 let mut improved: Option<u64> = None;
                 let mut straight: Option<u64> = None;
@@ -266,6 +269,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             turns.push(plan.metrics.turns as f64);
                             clear.push(plan.metrics.min_clearance_m);
                             mean_clear.push(plan.metrics.mean_clearance_m);
+                            half.push(plan.metrics.corridor_half_width_m);
                             cost.push(plan.metrics.path_cost);
                             iters.push(plan.stats.iterations as f64);
                             if let Some(b) = plan.stats.best_iteration {
@@ -316,6 +320,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     min_clearance_m_mean: mean(&clear),
                     mean_clearance_m_mean: mean(&mean_clear),
                     path_cost_mean: mean(&cost),
+                    corridor_half_width_m_mean: mean(&half),
                     time_ms_median,
                     time_vs_astar: (astar_ms > 0.0).then(|| time_ms_median / astar_ms),
                     iterations_mean: mean(&iters),
@@ -483,16 +488,16 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
     );
     let _ = writeln!(
         s,
-        "| map | scenario | planner | A* path | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | path cost | time median | vs A* | iterations | best at | improved on seed | hypervolume | termination |"
+        "| map | scenario | planner | A* path | ok | collision-free | length best | length mean | vs any-angle | turning best | turning mean | turns | min clearance | mean clearance | corridor half-width | path cost | time median | vs A* | iterations | best at | improved on seed | hypervolume | termination |"
     );
     let _ = writeln!(
         s,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} | {} |",
             r.map,
             r.scenario,
             r.planner,
@@ -508,6 +513,7 @@ pub fn markdown(rows: &[Row], args: &BenchArgs) -> String {
             f(r.turns_mean, 1),
             f(r.min_clearance_m_mean, 2),
             f(r.mean_clearance_m_mean, 2),
+            f(r.corridor_half_width_m_mean, 2),
             f(r.path_cost_mean, 2),
             r.time_ms_median,
             f(r.time_vs_astar, 2),

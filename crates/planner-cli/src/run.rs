@@ -89,6 +89,8 @@ struct PlanOutput<'a> {
     mean_clearance_m: f64,
     /// The costmap cost integrated along the path (m).
     path_cost: f64,
+    /// The half-width of the corridors the path runs through, averaged over its length (m).
+    corridor_half_width_m: f64,
     collision_free: bool,
     time_ms: f64,
     reference_length_m: Option<f64>,
@@ -135,6 +137,7 @@ pub fn plan_command(
         min_clearance_m: plan.metrics.min_clearance_m,
         mean_clearance_m: plan.metrics.mean_clearance_m,
         path_cost: plan.metrics.path_cost,
+        corridor_half_width_m: plan.metrics.corridor_half_width_m,
         collision_free: plan.metrics.collision_free,
         time_ms: elapsed.as_secs_f64() * 1e3,
         reference_length_m: reference.as_ref().map(|r| r.metrics.length_m),

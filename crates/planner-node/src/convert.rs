@@ -198,6 +198,10 @@ pub fn diagnostics(
                     format!("{:.4}", plan.metrics.mean_clearance_m),
                 ),
                 kv("path_cost", format!("{:.4}", plan.metrics.path_cost)),
+                kv(
+                    "corridor_half_width_m",
+                    format!("{:.4}", plan.metrics.corridor_half_width_m),
+                ),
                 kv("cut_short", plan.stats.cut_short.to_string()),
                 kv(
                     "termination",

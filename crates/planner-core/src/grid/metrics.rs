@@ -29,6 +29,12 @@ pub struct PathMetrics {
     /// path, as `sum cost / 252 * ds` in metres: 0 for a path that keeps out of the inflation
     /// radius everywhere, the path's length for one that grazes the inflated band all along.
     pub path_cost: f64,
+    /// The half-width (m) of the corridors the path runs through, averaged over its length: at
+    /// each point, the clearance of the middle of the corridor there ([`ridge_clearance`]). The
+    /// most mean clearance a path along the same corridors can have (issue 13: "or the
+    /// corridor's half-width, where the corridor is narrower"); `mean_clearance_m` over it says
+    /// how well the path keeps to the middle (1: on the middle line all along).
+    pub corridor_half_width_m: f64,
     /// Every segment crosses only free cells of the planning grid.
     pub collision_free: bool,
 }
@@ -144,6 +150,65 @@ pub fn mean_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
     }
 }
 
+/// The clearance (m) of the middle of the corridor at cell `c`: from `c`, step to the neighbour
+/// of largest clearance while that gains at least half the step, i.e. while moving more away
+/// from the nearest obstacle than along it. Across a corridor that climb runs straight from the
+/// wall to the middle line, where clearance stops growing (it can only grow along the middle
+/// line by less than half a step, towards a junction or a room, and the climb stops there).
+/// Infinite on a map without obstacles; 0 outside the map.
+pub fn ridge_clearance(grid: &PlanningGrid, c: Cell) -> f64 {
+    let res = grid.resolution();
+    let mut cur = c;
+    let mut here = grid.clearance(cur);
+    if !here.is_finite() || here <= 0.0 {
+        return here;
+    }
+    loop {
+        let mut next = None;
+        for (dx, dy) in crate::geometry::NEIGHBOURS_8 {
+            let n = cur.offset(dx, dy);
+            let gain = grid.clearance(n) - here;
+            let step = if dx != 0 && dy != 0 {
+                std::f64::consts::SQRT_2
+            } else {
+                1.0
+            } * res;
+            if gain >= 0.5 * step && next.is_none_or(|(_, best)| gain > best) {
+                next = Some((n, gain));
+            }
+        }
+        match next {
+            Some((n, _)) => {
+                cur = n;
+                here = grid.clearance(n);
+            }
+            None => return here,
+        }
+    }
+}
+
+/// [`ridge_clearance`] averaged over the length of a polyline (grid coordinates), in metres.
+pub fn corridor_half_width(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+    let (mut sum, mut len) = (0.0, 0.0);
+    let mut last: Option<(Cell, f64)> = None;
+    for (c, ds) in samples(points, 0.25) {
+        let h = match last {
+            Some((lc, lh)) if lc == c => lh,
+            _ => ridge_clearance(grid, c),
+        };
+        last = Some((c, h));
+        sum += h * ds;
+        len += ds;
+    }
+    if len > 0.0 {
+        sum / len
+    } else {
+        points
+            .first()
+            .map_or(0.0, |p| ridge_clearance(grid, Cell::containing(*p)))
+    }
+}
+
 /// The costmap cost integrated along a polyline (grid coordinates): `sum cost / 252 * ds`, in
 /// metres.
 pub fn path_cost(grid: &PlanningGrid, points: &[Point2]) -> f64 {
@@ -162,6 +227,7 @@ pub fn measure(grid: &PlanningGrid, points: &[Point2]) -> PathMetrics {
         min_clearance_m: min_clearance(grid, points),
         mean_clearance_m: mean_clearance(grid, points),
         path_cost: path_cost(grid, points),
+        corridor_half_width_m: corridor_half_width(grid, points),
         collision_free: path_is_free(grid, points),
     }
 }
@@ -219,5 +285,32 @@ mod tests {
         // A U-turn's tip is not collinear-redundant.
         let u = pts(&[(0.0, 0.0), (1.0, 0.0), (0.0, 0.0)]);
         assert_eq!(drop_collinear(&u), u);
+    }
+
+    /// A corridor 11 cells wide (walls in rows y = 0 and y = 12, 0.1 m cells) that opens into a
+    /// room 40 cells high: along the corridor the half-width is 0.6 m wherever the path runs,
+    /// by the wall or on the middle line, and the climb does not run along the middle line into
+    /// the room; in the room the middle is the room's.
+    #[test]
+    fn corridor_half_width_is_the_middles_clearance() {
+        use crate::test_support::grid_with;
+        let grid = grid_with((80, 42), 0.1, 0.0, |x, y| {
+            let wall = y == 0 || y == 41;
+            let corridor_wall = x < 40 && y >= 12;
+            wall || corridor_wall || x == 79
+        });
+        // By the wall (clearance 0.1 m) and on the middle line (0.6 m), from x = 2 to x = 20.
+        let by_wall = pts(&[(2.5, 1.5), (20.5, 1.5)]);
+        let middle = pts(&[(2.5, 6.5), (20.5, 6.5)]);
+        assert!((mean_clearance(&grid, &by_wall) - 0.1).abs() < 1e-9);
+        assert!((mean_clearance(&grid, &middle) - 0.6).abs() < 1e-9);
+        for path in [&by_wall, &middle] {
+            let h = corridor_half_width(&grid, path);
+            assert!((h - 0.6).abs() < 1e-9, "{h}");
+        }
+        // In the room (x 40..78, y 1..40), far from the corridor's mouth: the room's middle,
+        // 2.0 m from the floor and ceiling walls.
+        let room = ridge_clearance(&grid, Cell::new(60, 3));
+        assert!((room - 2.0).abs() < 0.05, "{room}");
     }
 }
