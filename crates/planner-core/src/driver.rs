@@ -117,7 +117,9 @@ pub fn drive<P: Population>(
             best = value;
             stats.best_iteration = Some(t as u64 + 1);
             stalled = 0;
-        } else {
+        } else if best.is_finite() {
+            // Patience counts only once there is an answer to improve on: a colony without a
+            // seed may take more than `patience` iterations before its first ant arrives.
             stalled += 1;
         }
         if let Some(observe) = ctx.observer.as_mut() {
@@ -143,13 +145,14 @@ mod tests {
 
     /// A population whose best value follows a script.
     struct Scripted {
+        initial: f64,
         values: Vec<f64>,
         evaluations: u64,
     }
 
     impl Population for Scripted {
         fn init(&mut self, _: &mut PlanContext<'_>, _: &mut PlanStats) -> Result<f64, PlanError> {
-            Ok(10.0)
+            Ok(self.initial)
         }
         fn step(&mut self, t: usize, _: &mut PlanContext<'_>) -> f64 {
             self.evaluations += 2;
@@ -167,9 +170,19 @@ mod tests {
     }
 
     fn run(values: &[f64], budget: Budget, interrupt: &dyn Fn() -> Option<Interrupt>) -> PlanStats {
+        run_from(10.0, values, budget, interrupt)
+    }
+
+    fn run_from(
+        initial: f64,
+        values: &[f64],
+        budget: Budget,
+        interrupt: &dyn Fn() -> Option<Interrupt>,
+    ) -> PlanStats {
         let mut r = rng(0);
         let mut ctx = PlanContext::new(&mut r, interrupt);
         let pop = Scripted {
+            initial,
             values: values.to_vec(),
             evaluations: 0,
         };
@@ -209,6 +222,26 @@ mod tests {
         assert!(!early.cut_short);
     }
 
+    /// Without an answer yet (an infinite best, as a colony without a seed has until its first
+    /// ant arrives) no iteration counts against the patience: the run goes on until one comes,
+    /// and the patience counts from there.
+    #[test]
+    fn patience_waits_for_the_first_answer() {
+        let inf = f64::INFINITY;
+        let values = [inf, inf, inf, inf, inf, 6.0, 6.0, 6.0, 6.0];
+        let budget = Budget {
+            iterations: 9,
+            patience: Some(3),
+        };
+        let stats = run_from(inf, &values, budget, &|| None);
+        assert_eq!(stats.best_iteration, Some(6));
+        assert_eq!(stats.iterations, 9);
+        assert_eq!(
+            stats.termination,
+            Some(Termination::Converged { patience: 3 })
+        );
+    }
+
     #[test]
     fn an_interrupt_stops_before_the_next_iteration() {
         let calls = std::cell::Cell::new(0);
@@ -244,6 +277,7 @@ mod tests {
         let mut ctx = PlanContext::new(&mut r, &|| None);
         ctx.observer = Some(&mut observe);
         let pop = Scripted {
+            initial: 10.0,
             values: vec![4.0, 3.0],
             evaluations: 0,
         };
