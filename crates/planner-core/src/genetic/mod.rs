@@ -86,8 +86,9 @@ pub struct GaParams {
     /// Insertions allowed per path, as a multiple of (width + height), before an individual is
     /// discarded. Default 4.
     pub insertion_budget_factor: f64,
-    /// What makes a path the answer. `fitness` (the paper, config/paper.yaml): the fittest path
-    /// of all generations. `pulled` (default): the evolution is the paper's, but the answer is
+    /// What makes IMGA's path the answer (the plain GA's is always the fittest). `fitness` (the
+    /// paper, config/paper.yaml): the fittest path of all generations. `pulled` (default): the
+    /// evolution is the paper's, but the answer is
     /// the path that straightens (the delete operation `solve` applies) into the shortest or
     /// smoothest one, worse on neither, starting from the seed's: each generation the
     /// [`PULLED_PER_GENERATION`] shortest individuals not judged before are straightened and
@@ -403,6 +404,16 @@ fn ring(centre: Cell, r: i32) -> impl Iterator<Item = Cell> {
     })
 }
 
+impl GaPlanner {
+    /// Whether the answer is chosen by [`GaJudge::Pulled`]: for IMGA only, whose answer goes
+    /// through the delete operation. The plain GA's answer is its cell path as it stands (no
+    /// delete operation by default), which the fittest path already is: judging it by a
+    /// straightened path it does not return would pick a worse staircase.
+    fn pulled_judge(&self) -> bool {
+        self.params.judge == GaJudge::Pulled && self.variant == GaVariant::Imga
+    }
+}
+
 impl Planner for GaPlanner {
     /// A* (the paths between random points) plus the list of free cells (8 B each).
     fn working_bytes_per_cell(&self) -> u64 {
@@ -588,7 +599,7 @@ impl Population for Generations<'_> {
         self.scored = pop.into_iter().map(|c| (self.score(&c), c)).collect();
         self.scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         self.best = self.scored[0].clone();
-        if p.judge == GaJudge::Pulled {
+        if self.planner.pulled_judge() {
             // The seed is the answer to beat; without one, the fittest initial path.
             let first = self
                 .seed_cells
@@ -653,7 +664,7 @@ impl Population for Generations<'_> {
         if self.scored[0].0 < self.best.0 - 1e-12 {
             self.best = self.scored[0].clone();
         }
-        if p.judge == GaJudge::Pulled {
+        if self.planner.pulled_judge() {
             self.judge_pulled();
         }
         self.best.0
@@ -679,7 +690,7 @@ impl Population for Generations<'_> {
                 .insert("failed_mutations".into(), self.failed_mutations as f64);
         }
         stats.counters.insert("fitness".into(), self.best.0);
-        if self.planner.params.judge == GaJudge::Pulled {
+        if self.planner.pulled_judge() {
             stats
                 .counters
                 .insert("answer_fitness".into(), self.score(&answer));
@@ -827,6 +838,28 @@ mod tests {
         };
         assert_eq!(improved(GaJudge::Pulled), 1.0);
         assert_eq!(improved(GaJudge::Fitness), 0.0);
+    }
+
+    /// The plain GA returns its cell path as it stands, so it keeps the fittest whatever the
+    /// judge says: the same plan under both.
+    #[test]
+    fn the_plain_ga_is_judged_by_fitness() {
+        use crate::test_support::{hall, solve_seeded};
+        let (grid, q) = hall(true);
+        let plan = |judge| {
+            let planner = GaPlanner {
+                variant: GaVariant::Ga,
+                params: GaParams {
+                    judge,
+                    ..Default::default()
+                },
+                apf: crate::field::ApfParams::default(),
+            };
+            solve_seeded(&planner, &grid, &q, 5).unwrap()
+        };
+        let (pulled, fitness) = (plan(GaJudge::Pulled), plan(GaJudge::Fitness));
+        assert_eq!(pulled.waypoints, fitness.waypoints);
+        assert!(!pulled.stats.counters.contains_key("answer_fitness"));
     }
 
     /// In an empty room the seed straightens into the segment to the goal: nothing improves on
