@@ -6,13 +6,14 @@ cost. The node runs on a domain of its own; nothing is published on /map.
 
 And the safety weight set at run time: the same GetPlan on the bundled map, first in the paper's
 two-objective mode (swarm.safety_weight 0), then after `ros2 param set /patrol_planner
-swarm.safety_weight 0.5`, comes back with a larger mean clearance on /diagnostics."""
+swarm.safety_weight 0.5`, comes back with a larger mean clearance on /diagnostics. A
+SetParametersAtomically request with one value out of range then changes nothing."""
 import numpy as np
 import rclpy
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 
 from conftest import LATCHED, ROOT, Ros, call_service, domain_id, initial_pose, stamped, start_node, stop_binary
 from test_node import grid_msg
@@ -87,6 +88,22 @@ def test_the_safety_weight_set_at_run_time_moves_the_next_plan_off_the_walls(tmp
         print(f"mean clearance {paper:.3f} m ({paper_length:.2f} m long) -> {safe:.3f} m ({safe_length:.2f} m long)")
         assert safe > paper + 0.1, f"mean clearance {paper} -> {safe}"
         assert safe_length < 1.15 * paper_length
+
+        # All or nothing: a safety weight in range beside a length weight out of it (a share).
+        def double(name, v):
+            return Parameter(name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=v))
+
+        atomic = SetParametersAtomically.Request(
+            parameters=[double("swarm.safety_weight", 0.0), double("swarm.length_weight", 2.0)]
+        )
+        result = call_service(ros, SetParametersAtomically, "/patrol_planner/set_parameters_atomically", atomic)
+        assert not result.result.successful
+        assert "length_weight" in result.result.reason, result.result.reason
+        got = call_service(
+            ros, GetParameters, "/patrol_planner/get_parameters",
+            GetParameters.Request(names=["swarm.safety_weight", "swarm.length_weight"]),
+        )
+        assert [v.double_value for v in got.values] == [0.5, 0.5]
     finally:
         ros.close()
         stop_binary(proc)

@@ -76,6 +76,15 @@ pub fn with_weight(
     )
 }
 
+/// Whether the weight `name` may take `value` by the planners' rules. Every weight's rule is a
+/// range of its own (none depends on another value), so checking it on the defaults decides.
+fn in_range(name: &str, value: f64) -> Result<(), String> {
+    match with_weight(&PlannerConfig::default(), name, value) {
+        Some(Err(e)) => Err(e),
+        _ => Ok(()),
+    }
+}
+
 /// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
 pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), String> {
     match (name, value) {
@@ -92,16 +101,21 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
             "{name} must be a finite non-negative double, not {v:?}"
         )),
         ("planner", v) => Err(format!("planner must be a string, not {v:?}")),
-        // The range is the planners' own rule, checked when the value is applied.
+        // The range is the planners' own rule. It is checked here, before anything is stored,
+        // as well as when the value is applied: ros2-client validates every value of a
+        // SetParametersAtomically request before it applies the first, so a request with one
+        // value out of range changes nothing.
         (n, ParameterValue::Double(v)) if WEIGHTS.iter().any(|w| w.name == n) => {
             if v.is_finite() {
-                Ok(())
+                in_range(n, *v)
             } else {
                 Err(format!("{name} must be finite, not {v}"))
             }
         }
         // `ros2 param set ... swarm.safety_weight 0` sends an integer.
-        (n, ParameterValue::Integer(_)) if WEIGHTS.iter().any(|w| w.name == n) => Ok(()),
+        (n, ParameterValue::Integer(v)) if WEIGHTS.iter().any(|w| w.name == n) => {
+            in_range(n, *v as f64)
+        }
         (n, v) if WEIGHTS.iter().any(|w| w.name == n) => {
             Err(format!("{name} must be a number, not {v:?}"))
         }
@@ -129,6 +143,10 @@ mod tests {
             assert!(validate_parameter(w.name, &ParameterValue::Integer(1)).is_ok());
             assert!(validate_parameter(w.name, &ParameterValue::Boolean(true)).is_err());
             assert!(validate_parameter(w.name, &ParameterValue::Double(0.5)).is_ok());
+            // Out of range is refused before anything is stored (so an atomic set of several
+            // values with one of them out of range changes none).
+            assert!(validate_parameter(w.name, &ParameterValue::Double(-1.0)).is_err());
+            assert!(validate_parameter(w.name, &ParameterValue::Integer(-1)).is_err());
         }
         assert!(with_weight(&base, "swarm.safety_weight", 1.5)
             .unwrap()
