@@ -17,8 +17,9 @@ const MIN_IMPROVEMENT: f64 = 1e-12;
 pub struct Budget {
     /// The most iterations (generations) to run.
     pub iterations: usize,
-    /// Stop after this many iterations in a row without a better best value; `None` never stops
-    /// early. One name and one meaning for every family.
+    /// Stop after this many iterations in a row without a better best value, counted once there
+    /// is a best (a finite value); `None` never stops early. One name and one meaning for every
+    /// family.
     pub patience: Option<usize>,
 }
 
