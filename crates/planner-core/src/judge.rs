@@ -20,8 +20,9 @@ use crate::planner::improves_on;
 /// one, and is not straightened at all (a heuristic: a wandering path may straighten more).
 pub const STAIRCASE_STRETCH: f64 = 1.082_392_200_292_394;
 
-/// Length (cells) and turning (rad) of a cell path after the delete operation (on cell
-/// centres: `solve` also pins the exact end points, the same for every candidate).
+/// Length (cells) and turning (rad) of a cell path after the delete operation, on cell centres.
+/// `solve` first moves the ends to the exact start and goal points, which can change what the
+/// delete operation keeps near them, so this is the answer's measure up to those two ends.
 pub fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
     let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
     let pulled = delete_redundant(grid, &pts);
@@ -75,10 +76,9 @@ mod tests {
         points.iter().map(|&(x, y)| Cell::new(x, y)).collect()
     }
 
-    /// Two staircases between the same ends in a room with a pillar: judged by their cells they
-    /// are much alike; straightened, the one that keeps the
-    /// goal in sight becomes the straight segment and wins, the one bent round the pillar keeps
-    /// its bend. An offer is taken only when it improves on the best.
+    /// Two staircases between the same ends in a room with a pillar: straightened, the one that
+    /// keeps the goal in sight becomes the straight segment and wins, the one bent round the
+    /// pillar keeps its bend. An offer is taken only when it improves on the best.
     #[test]
     fn offers_are_judged_by_the_straightened_path() {
         let grid = grid_from_rows(&[
@@ -138,5 +138,18 @@ mod tests {
         );
         assert!(!best.offer(&grid, &below), "nor does an equal one");
         assert_eq!(best.get(), Some((straight_len, straight_turn)));
+    }
+
+    /// A staircase may still straighten into a shorter answer up to the octile stretch over the
+    /// best answer's length, not beyond; anything may while there is no answer.
+    #[test]
+    fn may_improve_up_to_the_staircase_stretch() {
+        let grid = grid_from_rows(&["....", "...."]);
+        let mut best = PulledBest::default();
+        assert!(best.may_improve(1e9));
+        best.set(&grid, &cells(&[(0, 0), (1, 0), (2, 0), (3, 0)]));
+        assert_eq!(best.get(), Some((3.0, 0.0)));
+        assert!(best.may_improve(3.0 * STAIRCASE_STRETCH));
+        assert!(!best.may_improve(3.0 * STAIRCASE_STRETCH + 1e-6));
     }
 }

@@ -339,8 +339,8 @@ pub fn solve(
 
 /// Whether `answer` is better than `seed`, each as (length, turning) in one unit of length, the
 /// way issue 12 counts it: shorter or smoother, and worse on neither (a relative tolerance of
-/// 1e-9 absorbs rounding). The answer against its seed (`solve`), and an ant's straightened
-/// walk against the best so far (the colonies' pulled judge).
+/// 1e-9 absorbs rounding). The answer against its seed (`solve`), and a straightened ant's walk
+/// or GA individual against the best so far (the pulled judge, [`crate::judge`]).
 pub fn improves_on((seed_len, seed_turn): (f64, f64), (len, turn): (f64, f64)) -> bool {
     let tol = |v: f64| 1e-9 * v.abs().max(1.0);
     let no_worse = len <= seed_len + tol(seed_len) && turn <= seed_turn + tol(seed_turn);
