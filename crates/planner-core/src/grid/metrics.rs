@@ -5,6 +5,7 @@
 use crate::geometry::{wrap_angle, Cell, Point2};
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::raycast::{path_is_free, supercover};
+use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
 /// Heading changes smaller than this (rad) are not counted as turns: they are rounding noise.
@@ -155,49 +156,66 @@ pub fn mean_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
 /// from the nearest obstacle than along it. Across a corridor that climb runs straight from the
 /// wall to the middle line, where clearance stops growing (it can only grow along the middle
 /// line by less than half a step, towards a junction or a room, and the climb stops there).
-/// Infinite on a map without obstacles; 0 outside the map.
+/// Infinite on a map without obstacles; 0 outside the map. An approximation where the nearest
+/// obstacle is the map's edge (the edge is not an obstacle to the distance field, so the climb
+/// may run on towards it) or where a wide opening beside a point leads the climb into the space
+/// beyond it.
 pub fn ridge_clearance(grid: &PlanningGrid, c: Cell) -> f64 {
+    ridge_clearance_cached(grid, c, &mut FxHashMap::default())
+}
+
+/// [`ridge_clearance`], remembering the answer of every cell a climb passed through: the climb
+/// from any of them follows the same steps to the same end, so a path's many samples climb each
+/// cell once.
+fn ridge_clearance_cached(grid: &PlanningGrid, c: Cell, known: &mut FxHashMap<Cell, f64>) -> f64 {
+    if let Some(&h) = known.get(&c) {
+        return h;
+    }
     let res = grid.resolution();
-    let mut cur = c;
-    let mut here = grid.clearance(cur);
-    if !here.is_finite() || here <= 0.0 {
-        return here;
-    }
-    loop {
-        let mut next = None;
-        for (dx, dy) in crate::geometry::NEIGHBOURS_8 {
-            let n = cur.offset(dx, dy);
-            let gain = grid.clearance(n) - here;
-            let step = if dx != 0 && dy != 0 {
-                std::f64::consts::SQRT_2
-            } else {
-                1.0
-            } * res;
-            if gain >= 0.5 * step && next.is_none_or(|(_, best)| gain > best) {
-                next = Some((n, gain));
+    let mut climb = vec![c];
+    let mut here = grid.clearance(c);
+    let top = if !here.is_finite() || here <= 0.0 {
+        here
+    } else {
+        loop {
+            let cur = climb[climb.len() - 1];
+            let mut next = None;
+            for (dx, dy) in crate::geometry::NEIGHBOURS_8 {
+                let n = cur.offset(dx, dy);
+                let gain = grid.clearance(n) - here;
+                let step = if dx != 0 && dy != 0 {
+                    std::f64::consts::SQRT_2
+                } else {
+                    1.0
+                } * res;
+                if gain >= 0.5 * step && next.is_none_or(|(_, best)| gain > best) {
+                    next = Some((n, gain));
+                }
+            }
+            match next {
+                Some((n, _)) => {
+                    if let Some(&h) = known.get(&n) {
+                        break h;
+                    }
+                    climb.push(n);
+                    here = grid.clearance(n);
+                }
+                None => break here,
             }
         }
-        match next {
-            Some((n, _)) => {
-                cur = n;
-                here = grid.clearance(n);
-            }
-            None => return here,
-        }
+    };
+    for cell in climb {
+        known.insert(cell, top);
     }
+    top
 }
 
 /// [`ridge_clearance`] averaged over the length of a polyline (grid coordinates), in metres.
 pub fn corridor_half_width(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+    let mut known = FxHashMap::default();
     let (mut sum, mut len) = (0.0, 0.0);
-    let mut last: Option<(Cell, f64)> = None;
     for (c, ds) in samples(points, 0.25) {
-        let h = match last {
-            Some((lc, lh)) if lc == c => lh,
-            _ => ridge_clearance(grid, c),
-        };
-        last = Some((c, h));
-        sum += h * ds;
+        sum += ridge_clearance_cached(grid, c, &mut known) * ds;
         len += ds;
     }
     if len > 0.0 {
@@ -304,9 +322,21 @@ mod tests {
         let middle = pts(&[(2.5, 6.5), (20.5, 6.5)]);
         assert!((mean_clearance(&grid, &by_wall) - 0.1).abs() < 1e-9);
         assert!((mean_clearance(&grid, &middle) - 0.6).abs() < 1e-9);
-        for path in [&by_wall, &middle] {
+        // Up to the corridor's mouth at x = 40.
+        let to_mouth = pts(&[(2.5, 6.5), (39.5, 6.5)]);
+        for path in [&by_wall, &middle, &to_mouth] {
             let h = corridor_half_width(&grid, path);
             assert!((h - 0.6).abs() < 1e-9, "{h}");
+        }
+        // Up to the last cells before the mouth, by either wall or in the middle. The one cell
+        // at the corner itself climbs out of the corridor a little (0.7 m): the documented
+        // approximation beside an opening, one cell wide here.
+        for x in 30..40 {
+            for y in [1, 6, 11] {
+                let h = ridge_clearance(&grid, Cell::new(x, y));
+                let want = if (x, y) == (39, 11) { 0.7 } else { 0.6 };
+                assert!((h - want).abs() < 1e-9, "({x}, {y}): {h}");
+            }
         }
         // In the room (x 40..78, y 1..40), far from the corridor's mouth: the room's middle,
         // 2.0 m from the floor and ceiling walls.
