@@ -488,9 +488,7 @@ impl Generations<'_> {
             self.planner.params.weight_cost > 0.0,
         ))
     }
-}
 
-impl Generations<'_> {
     /// [`GaJudge::Pulled`]: straightens the [`PULLED_PER_GENERATION`] shortest individuals of
     /// the population not judged before and offers each as the answer (skipping those too long
     /// to straighten into a shorter one: [`PulledBest::may_improve`]).
