@@ -72,7 +72,7 @@ def test_the_bundled_patrol_twice_in_the_best_order_on_time_with_the_missed_poin
         odom, cmds, feedback = [], [], []
         ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
         ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
-        ros.spin_until(lambda: odom, 20, "/odom from the simulated chassis")
+        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
         ros.spin_until(lambda: client.server_is_ready(), 20, "the follow_waypoints action")
         goal = FollowWaypoints.Goal()

@@ -37,7 +37,7 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
         grid = bundled_map()
         ros.wait_matched(ros.map_pub, "/map")
         ros.map_pub.publish(grid_msg(grid, origin=(0.0, 0.0), res=RES))
-        ros.spin_until(lambda: odom, 20, "/odom from the simulated chassis")
+        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         ros.send_goal_until_planned(stamped(*GOAL))
         first = [p for p in ros.plans if p.poses][-1]
         pts = [(p.pose.position.x, p.pose.position.y) for p in first.poses]

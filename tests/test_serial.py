@@ -108,7 +108,7 @@ def test_the_serial_chassis_obeys_within_limits_and_reports_odometry(rig):
     ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
     cmd_pub = ros.node.create_publisher(Twist, "/cmd_vel", 10)
     ros.wait_matched(cmd_pub, "/cmd_vel")
-    ros.spin_until(lambda: odom, 20, "/odom from the serial chassis")
+    ros.spin_until(lambda: odom, 45, "/odom from the serial chassis")
 
     # 2 s of a command beyond the limits: 1 m/s and 1 rad/s.
     end = time.time() + 2.0

@@ -62,7 +62,7 @@ def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(r
     msg.info.origin.orientation.w = 1.0
     msg.data = grid.flatten().tolist()
     ros.map_pub.publish(msg)
-    ros.spin_until(lambda: len(odom) > 10, 20, "/odom from the simulated chassis")
+    ros.spin_until(lambda: len(odom) > 10, 45, "/odom from the simulated chassis")
 
     # Send the goal until the node has the map and answers with a plan to it.
     def planned():
