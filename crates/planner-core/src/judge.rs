@@ -37,11 +37,16 @@ pub struct PulledBest {
 }
 
 impl PulledBest {
-    /// Whether a cell path of `cells_length` (cells) may straighten into a shorter answer than
-    /// the best (by [`STAIRCASE_STRETCH`]); always while there is none.
-    pub fn may_improve(&self, cells_length: f64) -> bool {
+    /// The longest cell path (cells) that may still straighten into a shorter answer than the
+    /// best: [`STAIRCASE_STRETCH`] times its length; infinite while there is none.
+    pub fn length_limit(&self) -> f64 {
         self.best
-            .is_none_or(|(len, _)| cells_length <= STAIRCASE_STRETCH * len + 1e-9)
+            .map_or(f64::INFINITY, |(len, _)| STAIRCASE_STRETCH * len + 1e-9)
+    }
+
+    /// Whether a cell path of `cells_length` (cells) is within [`PulledBest::length_limit`].
+    pub fn may_improve(&self, cells_length: f64) -> bool {
+        cells_length <= self.length_limit()
     }
 
     /// The best answer's (length in cells, turning in rad), if any.

@@ -37,7 +37,7 @@ use crate::driver::{drive, Budget, Population};
 use crate::field::{wavefront, ApfParams, PotentialField, Wavefront};
 use crate::geometry::{Cell, Point2, Vector2, NEIGHBOURS_8};
 use crate::grid::{MapInfo, PlanningGrid};
-use crate::judge::{PulledBest, STAIRCASE_STRETCH};
+use crate::judge::PulledBest;
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
 use crate::registry::PlannerName;
@@ -492,9 +492,9 @@ impl<'a> Colony<'a> {
         // taken not to straighten into a shorter one. A heuristic: the bound holds for the
         // shortest staircase between two corners, a wandering walk may straighten more. The ant
         // gives up there (counted as dropped) instead of wandering on to the map-sized budget.
-        let limit = match (p.judge, self.best_pulled.get()) {
-            (Judge::Pulled, Some((best_len, _))) => STAIRCASE_STRETCH * best_len + 1e-9,
-            _ => f64::INFINITY,
+        let limit = match p.judge {
+            Judge::Pulled => self.best_pulled.length_limit(),
+            Judge::Cells => f64::INFINITY,
         };
         let mut walked = 0.0;
         while self.walk.len() <= self.steps {

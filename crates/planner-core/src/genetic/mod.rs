@@ -816,6 +816,18 @@ mod tests {
         }
     }
 
+    /// A genetic planner with the default parameters but `judge` (`Pulled` is the default).
+    fn planner(variant: GaVariant, judge: GaJudge) -> GaPlanner {
+        GaPlanner {
+            variant,
+            params: GaParams {
+                judge,
+                ..Default::default()
+            },
+            apf: crate::field::ApfParams::default(),
+        }
+    }
+
     /// In a hall of pillars, judged by the path it straightens into, the seeded IMGA returns an
     /// answer better than the field's path it starts from, whatever the seed; judged by fitness
     /// (the paper's answer, here with the seed) the fittest path is not (seed 5: the fitness
@@ -825,15 +837,7 @@ mod tests {
         use crate::test_support::{hall, solve_seeded};
         let (grid, q) = hall(true);
         let improved = |judge, seed| {
-            let planner = GaPlanner {
-                variant: GaVariant::Imga,
-                params: GaParams {
-                    judge,
-                    ..Default::default()
-                },
-                apf: crate::field::ApfParams::default(),
-            };
-            let plan = solve_seeded(&planner, &grid, &q, seed).unwrap();
+            let plan = solve_seeded(&planner(GaVariant::Imga, judge), &grid, &q, seed).unwrap();
             assert!(plan.metrics.collision_free);
             plan.stats.counters["improved_on_seed"]
         };
@@ -849,17 +853,7 @@ mod tests {
     fn the_plain_ga_is_judged_by_fitness() {
         use crate::test_support::{hall, solve_seeded};
         let (grid, q) = hall(true);
-        let plan = |judge| {
-            let planner = GaPlanner {
-                variant: GaVariant::Ga,
-                params: GaParams {
-                    judge,
-                    ..Default::default()
-                },
-                apf: crate::field::ApfParams::default(),
-            };
-            solve_seeded(&planner, &grid, &q, 5).unwrap()
-        };
+        let plan = |judge| solve_seeded(&planner(GaVariant::Ga, judge), &grid, &q, 5).unwrap();
         let (pulled, fitness) = (plan(GaJudge::Pulled), plan(GaJudge::Fitness));
         assert_eq!(pulled.waypoints, fitness.waypoints);
         assert!(!pulled.stats.counters.contains_key("answer_fitness"));
@@ -871,11 +865,7 @@ mod tests {
     fn a_straight_seed_is_counted_as_such() {
         use crate::planner::Query;
         use crate::test_support::{grid_with, hall, solve_seeded};
-        let planner = GaPlanner {
-            variant: GaVariant::Imga,
-            params: GaParams::default(),
-            apf: crate::field::ApfParams::default(),
-        };
+        let planner = planner(GaVariant::Imga, GaJudge::Pulled);
         let room = grid_with((40, 20), 1.0, 0.0, |_, _| false);
         let q = Query {
             start: Point2::new(2.5, 3.5),
@@ -963,11 +953,7 @@ mod tests {
             tolerance: 0.0,
         };
         for variant in [GaVariant::Imga, GaVariant::Ga] {
-            let planner = GaPlanner {
-                variant,
-                params: GaParams::default(),
-                apf: crate::field::ApfParams::default(),
-            };
+            let planner = planner(variant, GaJudge::Pulled);
             let run = |seed| solve_seeded(&planner, &grid, &q, seed).unwrap();
             let plan = run(5);
             assert!(plan.metrics.collision_free, "{}", variant.name());

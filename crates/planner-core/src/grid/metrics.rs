@@ -135,20 +135,24 @@ fn samples(points: &[Point2], step: f64) -> impl Iterator<Item = (Cell, f64)> + 
     })
 }
 
-/// Clearance (m) averaged over the length of a polyline (grid coordinates).
-pub fn mean_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+/// A per-cell value averaged over the length of a polyline (grid coordinates): each sample's
+/// cell weighted by the length it stands for; a polyline of no length takes its first point's.
+fn length_average(points: &[Point2], mut value: impl FnMut(Cell) -> f64) -> f64 {
     let (mut sum, mut len) = (0.0, 0.0);
     for (c, ds) in samples(points, 0.25) {
-        sum += grid.clearance(c) * ds;
+        sum += value(c) * ds;
         len += ds;
     }
     if len > 0.0 {
         sum / len
     } else {
-        points
-            .first()
-            .map_or(0.0, |p| grid.clearance(Cell::containing(*p)))
+        points.first().map_or(0.0, |p| value(Cell::containing(*p)))
     }
+}
+
+/// Clearance (m) averaged over the length of a polyline (grid coordinates).
+pub fn mean_clearance(grid: &PlanningGrid, points: &[Point2]) -> f64 {
+    length_average(points, |c| grid.clearance(c))
 }
 
 /// The clearance (m) of the middle of the corridor at cell `c`: from `c`, step to the neighbour
@@ -213,18 +217,7 @@ fn ridge_clearance_cached(grid: &PlanningGrid, c: Cell, known: &mut FxHashMap<Ce
 /// [`ridge_clearance`] averaged over the length of a polyline (grid coordinates), in metres.
 pub fn corridor_half_width(grid: &PlanningGrid, points: &[Point2]) -> f64 {
     let mut known = FxHashMap::default();
-    let (mut sum, mut len) = (0.0, 0.0);
-    for (c, ds) in samples(points, 0.25) {
-        sum += ridge_clearance_cached(grid, c, &mut known) * ds;
-        len += ds;
-    }
-    if len > 0.0 {
-        sum / len
-    } else {
-        points
-            .first()
-            .map_or(0.0, |p| ridge_clearance(grid, Cell::containing(*p)))
-    }
+    length_average(points, |c| ridge_clearance_cached(grid, c, &mut known))
 }
 
 /// The costmap cost integrated along a polyline (grid coordinates): `sum cost / 252 * ds`, in
