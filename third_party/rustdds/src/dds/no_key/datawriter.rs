@@ -130,37 +130,9 @@ where
     self.keyed_datawriter.wait_for_acknowledgments(max_wait)
   }
   /*
+  // patrol-planner patch: get_liveliness_lost_status and get_offered_incompatible_qos_status,
+  // whose bodies were todo!(), are left out (third_party/README.md, change 6).
   // status queries
-  /// Unimplemented. <b>Do not use</b>.
-  ///
-  /// # Examples
-  ///
-  // TODO: enable run when implemented
-  /// ```no_run
-  /// # use serde::{Serialize, Deserialize};
-  /// # use rustdds::*;
-  /// # use rustdds::no_key::DataWriter;
-  /// # use rustdds::serialization::CDRSerializerAdapter;
-  /// #
-  /// let domain_participant = DomainParticipant::new(0).unwrap();
-  /// let qos = QosPolicyBuilder::new().build();
-  /// let publisher = domain_participant.create_publisher(&qos).unwrap();
-  ///
-  /// # #[derive(Serialize, Deserialize)]
-  /// # struct SomeType {}
-  /// #
-  /// // NoKey is important
-  /// let topic = domain_participant.create_topic("some_topic".to_string(), "SomeType".to_string(), &qos, TopicKind::NoKey).unwrap();
-  /// let data_writer = publisher.create_datawriter_no_key::<SomeType, CDRSerializerAdapter<_>>(topic, None).unwrap();
-  ///
-  /// if let Ok(status) = data_writer.get_liveliness_lost_status() {
-  ///   // Do something
-  /// }
-  /// ```
-  pub fn get_liveliness_lost_status(&self) -> Result<LivelinessLostStatus> {
-    self.keyed_datawriter.get_liveliness_lost_status()
-  }
-
   /// Should get latest offered deadline missed status. <b>Do not use yet</b> use `get_status_lister` instead for the moment.
   ///
   /// # Examples
@@ -189,36 +161,6 @@ where
   /// ```
   pub fn get_offered_deadline_missed_status(&self) -> Result<OfferedDeadlineMissedStatus> {
     self.keyed_datawriter.get_offered_deadline_missed_status()
-  }
-
-  /// Unimplemented. <b>Do not use</b>.
-  ///
-  /// # Examples
-  ///
-  // TODO: enable run when implemented
-  /// ```no_run
-  /// # use serde::{Serialize, Deserialize};
-  /// # use rustdds::*;
-  /// # use rustdds::no_key::DataWriter;
-  /// # use rustdds::serialization::CDRSerializerAdapter;
-  /// #
-  /// let domain_participant = DomainParticipant::new(0).unwrap();
-  /// let qos = QosPolicyBuilder::new().build();
-  /// let publisher = domain_participant.create_publisher(&qos).unwrap();
-  ///
-  /// # #[derive(Serialize, Deserialize)]
-  /// # struct SomeType {}
-  /// #
-  /// // NoKey is important
-  /// let topic = domain_participant.create_topic("some_topic".to_string(), "SomeType".to_string(), &qos, TopicKind::NoKey).unwrap();
-  /// let data_writer = publisher.create_datawriter_no_key::<SomeType, CDRSerializerAdapter<_>>(topic, None).unwrap();
-  ///
-  /// if let Ok(status) = data_writer.get_offered_incompatible_qos_status() {
-  ///   // Do something
-  /// }
-  /// ```
-  pub fn get_offered_incompatible_qos_status(&self) -> Result<OfferedIncompatibleQosStatus> {
-    self.keyed_datawriter.get_offered_incompatible_qos_status()
   }
 
   /// Unimplemented. <b>Do not use</b>.
