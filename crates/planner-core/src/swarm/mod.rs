@@ -38,7 +38,7 @@ use crate::geometry::Point2;
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::metrics::{path_length, total_turning};
 use crate::grid::raycast::{blocked_and_cost_length, blocked_length, path_is_free};
-use crate::grid::smoothing::delete_redundant;
+use crate::grid::smoothing::{delete_redundant, delete_redundant_weighted};
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
 use crate::registry::PlannerName;
@@ -124,7 +124,9 @@ pub struct SwarmParams {
     /// With safety on, the swarm starts from cost-aware A*'s path with this
     /// `cost_travel_multiplier` (Smac 2D's step cost `d (1 + m cost / 252)`, a path that already
     /// keeps off the walls) instead of the potential field's, which hugs them wherever its
-    /// repulsion has faded. Default 3.
+    /// repulsion has faded; straightened by the delete operation weighing the same step cost
+    /// ([`delete_redundant_weighted`]), so that the staircase goes but the clearance stays (the
+    /// plain delete operation would pull it back onto the walls). Default 3.
     pub safety_seed_multiplier: f64,
     /// Initial spread around the seed, as a share of each dimension's range. Default 0.05.
     pub init_spread: f64,
@@ -331,6 +333,12 @@ pub(crate) fn start(
             start_stats.notes.push(
                 "seed: string-pulled, since the raw path does not fit the lateral stations".into(),
             );
+            // Pulled taut by the plain delete operation even with safety on: the general
+            // encoding's free waypoints then start from the short end of the trade-off, and the
+            // safety objective moves them off the walls. Straightened weighing the cost here as
+            // well, the answers kept more clearance at more length (20 seeds on the 20 safety
+            // scenarios: length within 1.08 x any-angle on 15 against 17, mean 1.059 against
+            // 1.051; warehouse across 1.184 against 1.118).
             Encoding::choose(
                 grid,
                 &delete_redundant(grid, &raw),
@@ -359,8 +367,8 @@ pub(crate) fn start(
 }
 
 /// The swarm's first global best: the potential-field path, or A*'s when the field cannot reach
-/// the goal (with safety on: cost-aware A*'s), as a feasible polyline from the exact start to
-/// the exact goal.
+/// the goal (with safety on: cost-aware A*'s, straightened by the weighted delete operation), as
+/// a feasible polyline from the exact start to the exact goal.
 fn seed_path(
     problem: &Problem<'_>,
     p: &SwarmParams,
@@ -371,7 +379,8 @@ fn seed_path(
     let grid = problem.grid;
     let cells = if p.safety_weight > 0.0 {
         stats.notes.push(format!(
-            "seed: cost-aware A* (multiplier {}), since safety is weighted",
+            "seed: cost-aware A* (multiplier {}), straightened weighing the same cost, since \
+             safety is weighted",
             p.safety_seed_multiplier
         ));
         astar_cells_cost_aware(
@@ -388,6 +397,9 @@ fn seed_path(
     let mut pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
     pts[0] = problem.start_point;
     *pts.last_mut().expect("non-empty") = problem.goal_point;
+    if p.safety_weight > 0.0 {
+        pts = delete_redundant_weighted(grid, &pts, p.safety_seed_multiplier);
+    }
     if !path_is_free(grid, &pts) {
         // Exact end points inside their cells can graze a corner; keep the centres then.
         pts = cells.iter().map(|c| c.center()).collect();
