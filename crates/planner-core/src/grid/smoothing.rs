@@ -32,13 +32,15 @@ pub fn delete_redundant(grid: &PlanningGrid, points: &[Point2]) -> Vec<Point2> {
 /// step cost `length * (1 + multiplier * cost / 252)` (the cost averaged over the cells the
 /// segment touches), than the path it replaces. A cost-aware path so straightened keeps the
 /// clearance it was searched for, where [`delete_redundant`] would pull it back onto the walls.
-/// With `multiplier` 0 it is [`delete_redundant`].
+/// Where every cost is 0, or with a multiplier that is not a positive finite number, it is
+/// [`delete_redundant`]. Like it, it walks from the anchor to each next node: quadratic in the
+/// length of the straight runs, once per path.
 pub fn delete_redundant_weighted(
     grid: &PlanningGrid,
     points: &[Point2],
     multiplier: f64,
 ) -> Vec<Point2> {
-    if points.len() <= 2 || multiplier <= 0.0 {
+    if points.len() <= 2 || !(multiplier.is_finite() && multiplier > 0.0) {
         return delete_redundant(grid, points);
     }
     let weighted = |a: Point2, b: Point2| -> Option<f64> {
@@ -49,14 +51,13 @@ pub fn delete_redundant_weighted(
             cost += u64::from(v);
             free
         });
-        free.then(|| {
-            (b - a).norm() * (1.0 + multiplier * cost as f64 / (252.0 * total.max(1) as f64))
-        })
+        // `supercover` visits the first cell before it can stop: `total` is at least 1.
+        free.then(|| (b - a).norm() * (1.0 + multiplier * cost as f64 / (252.0 * total as f64)))
     };
     let mut out = vec![points[0]];
     let mut anchor = points[0];
-    // The weighted length of the output from the anchor to `points[k]`.
-    let mut along = 0.0;
+    // The weighted length of the output from the anchor to `points[k]` (k = 1 first).
+    let mut along = weighted(points[0], points[1]).unwrap_or(f64::INFINITY);
     for k in 1..points.len() - 1 {
         let step = weighted(points[k], points[k + 1]).unwrap_or(f64::INFINITY);
         match weighted(anchor, points[k + 1]) {
@@ -123,7 +124,7 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(96))]
         /// On random grids, for cost-aware A*'s path, the weighted delete operation keeps the
         /// ends, never makes the path cost more (in the weighted length it compares) and never
-        /// makes it collide; with multiplier 0 it is the plain delete operation.
+        /// makes it collide, and keeps nodes of the path, in order.
         #[test]
         fn weighted_never_costs_more_nor_collides(seed in any::<u64>(), density in 0.0f64..0.35) {
             let (grid, start, goal) = random_grid(seed, 20, 16, density);
@@ -138,7 +139,30 @@ mod tests {
             prop_assert_eq!(out.last(), path.last());
             prop_assert!(weighted_length(&grid, &out, 3.0) <= weighted_length(&grid, &path, 3.0) + 1e-9);
             prop_assert!(crate::grid::raycast::path_is_free(&grid, &out));
-            prop_assert_eq!(delete_redundant_weighted(&grid, &path, 0.0), delete_redundant(&grid, &path));
+            // The output keeps nodes of the path, in order.
+            let mut rest = path.iter();
+            prop_assert!(out.iter().all(|p| rest.any(|q| q == p)));
+        }
+    }
+
+    /// Where nothing costs anything the weighted operation is the plain one: across an empty
+    /// room, both straighten a staircase that starts off a cell's centre into one segment.
+    #[test]
+    fn weighted_is_plain_where_nothing_costs() {
+        use crate::test_support::grid_with;
+        let room = grid_with((30, 20), 1.0, 0.0, |_, _| false);
+        let mut path: Vec<Point2> = (0..15)
+            .map(|k| Point2::new(2.5 + k as f64, 2.5 + (k / 2) as f64))
+            .collect();
+        path[0] = Point2::new(2.2, 2.9);
+        let plain = delete_redundant(&room, &path);
+        assert_eq!(plain.len(), 2);
+        for m in [0.0, 3.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(
+                delete_redundant_weighted(&room, &path, m),
+                plain,
+                "multiplier {m}"
+            );
         }
     }
 
@@ -175,7 +199,7 @@ mod tests {
         // 0.1 m from the block's corner plain, 0.71 m weighted, 0.76 m along the staircase;
         // lengths 112.0, 115.2 and 120.8 cells; turning 0.4, 2.3 and 17.3 rad.
         let turning = crate::grid::metrics::total_turning;
-        assert!(path_length(&weighted) < 0.96 * path_length(&path));
+        assert!(path_length(&weighted) < 0.98 * path_length(&path));
         assert!(turning(&weighted) < 0.2 * turning(&path));
     }
 
