@@ -130,8 +130,8 @@ where
     self.keyed_datawriter.wait_for_acknowledgments(max_wait)
   }
   /*
-  // patrol-planner patch: get_liveliness_lost_status and get_offered_incompatible_qos_status,
-  // whose bodies were todo!(), are left out (third_party/README.md, change 6).
+  // patrol-planner patch: the commented-out status getters whose bodies only panicked are
+  // deleted (third_party/README.md, change 6).
   // status queries
   /// Should get latest offered deadline missed status. <b>Do not use yet</b> use `get_status_lister` instead for the moment.
   ///

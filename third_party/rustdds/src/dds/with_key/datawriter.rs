@@ -461,8 +461,8 @@ where
 
   /*
 
-  // patrol-planner patch: get_liveliness_lost_status and get_offered_incompatible_qos_status,
-  // whose bodies were todo!(), are left out (third_party/README.md, change 6).
+  // patrol-planner patch: the commented-out status getters whose bodies only panicked are
+  // deleted (third_party/README.md, change 6).
   /// Should get latest offered deadline missed status. <b>Do not use yet</b> use `get_status_lister` instead for the moment.
   ///
   /// # Examples
@@ -517,45 +517,6 @@ where
     };
 
     Ok(fstatus)
-  }
-
-  /// Unimplemented. <b>Do not use</b>.
-  ///
-  /// # Examples
-  ///
-  /// ```no_run
-  // TODO: enable when functional
-  /// # use serde::{Serialize, Deserialize};
-  /// # use rustdds::*;
-  /// # use rustdds::with_key::DataWriter;
-  /// # use rustdds::serialization::CDRSerializerAdapter;
-  /// #
-  /// let domain_participant = DomainParticipant::new(0).unwrap();
-  /// let qos = QosPolicyBuilder::new().build();
-  /// let publisher = domain_participant.create_publisher(&qos).unwrap();
-  ///
-  /// #[derive(Serialize, Deserialize, Debug)]
-  /// struct SomeType { a: i32 }
-  /// impl Keyed for SomeType {
-  ///   type K = i32;
-  ///
-  ///   fn key(&self) -> Self::K {
-  ///     self.a
-  ///   }
-  /// }
-  ///
-  /// // WithKey is important
-  /// let topic = domain_participant.create_topic("some_topic".to_string(), "SomeType".to_string(), &qos, TopicKind::WithKey).unwrap();
-  /// let data_writer = publisher.create_datawriter::<SomeType, CDRSerializerAdapter<_>>(topic, None).unwrap();
-  ///
-  /// // Liveliness lost status has changed
-  ///
-  /// if let Ok(pms) = data_writer.get_publication_matched_status() {
-  ///   // do something
-  /// }
-  /// ```
-  pub fn get_publication_matched_status(&self) -> Result<PublicationMatchedStatus> {
-    todo!()
   }
 
   */
