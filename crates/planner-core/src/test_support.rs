@@ -93,3 +93,18 @@ pub fn hall(pillars: bool) -> (PlanningGrid, crate::planner::Query) {
     };
     (grid_with((w, h), 1.0, 0.0, blocked), q)
 }
+
+/// A real map's resolution: a 20 x 10 m room of 0.05 m cells (400 x 200), split by a wall with
+/// a gap at its top, a short bar on the way, obstacles inflated 0.3 m; start and goal in the
+/// two bottom corners, 1 m from the walls.
+pub fn split_room_fine() -> (PlanningGrid, crate::planner::Query) {
+    let grid = grid_with((400, 200), 0.05, 0.3, |x, y| {
+        (x == 200 && y < 150) || (y == 60 && x > 80 && x < 120)
+    });
+    let q = crate::planner::Query {
+        start: Point2::new(1.0, 1.0),
+        goal: Point2::new(19.0, 1.0),
+        tolerance: 0.0,
+    };
+    (grid, q)
+}

@@ -921,21 +921,13 @@ mod tests {
         assert_eq!(improved(GaJudge::Fitness, 5), 0.0);
     }
 
-    /// At a real map's resolution (a 20 x 10 m room of 0.05 m cells, split by a wall with a
-    /// gap at its top, a short bar on the way, obstacles inflated 0.3 m) a one-cell move
+    /// At a real map's resolution ([`crate::test_support::split_room_fine`]) a one-cell move
     /// changes nothing the delete operation keeps: with the paper's mutation IMGA beats its
     /// seed on 3 of 8 seeds. Rerouting whole stretches beats it on all 8.
     #[test]
     fn rerouting_beats_the_seed_where_one_cell_moves_do_not() {
-        use crate::test_support::{grid_with, solve_seeded};
-        let grid = grid_with((400, 200), 0.05, 0.3, |x, y| {
-            (x == 200 && y < 150) || (y == 60 && x > 80 && x < 120)
-        });
-        let q = crate::planner::Query {
-            start: Point2::new(1.0, 1.0),
-            goal: Point2::new(19.0, 1.0),
-            tolerance: 0.0,
-        };
+        use crate::test_support::{solve_seeded, split_room_fine};
+        let (grid, q) = split_room_fine();
         let improved = |mutation| {
             let planner = GaPlanner {
                 variant: GaVariant::Imga,
