@@ -92,7 +92,10 @@ impl Pose2 {
 /// Wraps an angle to (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     let two_pi = std::f64::consts::TAU;
-    let mut r = a % two_pi;
+    // `%` is exact and returns `a` itself when |a| < 2 pi, which a difference of two headings
+    // from `atan2` always is but at +-2 pi: skipping the call gives the same bits, and the
+    // swarms wrap every vertex of every feasible candidate.
+    let mut r = if a.abs() < two_pi { a } else { a % two_pi };
     if r <= -std::f64::consts::PI {
         r += two_pi;
     } else if r > std::f64::consts::PI {
@@ -112,6 +115,26 @@ mod tests {
         assert!((wrap_angle(-PI) - PI).abs() < 1e-12);
         assert!((wrap_angle(0.5) - 0.5).abs() < 1e-12);
         assert!((wrap_angle(-0.5 - 2.0 * PI) + 0.5).abs() < 1e-12);
+    }
+
+    proptest::proptest! {
+        /// Skipping `%` below 2 pi gives the same bits as always taking it: the swarms' turning,
+        /// and so every recorded path, depends on them.
+        #[test]
+        fn wrap_angle_is_bit_for_bit_the_remainder_form(a in -20.0f64..20.0) {
+            let reference = |a: f64| {
+                let mut r = a % std::f64::consts::TAU;
+                if r <= -PI {
+                    r += std::f64::consts::TAU;
+                } else if r > PI {
+                    r -= std::f64::consts::TAU;
+                }
+                r
+            };
+            for x in [a, std::f64::consts::TAU, -std::f64::consts::TAU, 2.0 * PI - 1e-15] {
+                proptest::prop_assert_eq!(wrap_angle(x).to_bits(), reference(x).to_bits());
+            }
+        }
     }
 
     #[test]

@@ -114,10 +114,11 @@ pub fn blocked_length(grid: &PlanningGrid, points: &[Point2]) -> f64 {
 /// its supercover touches, in grid units. The swarms' safety objective: one pass for both.
 pub fn blocked_and_cost_length(grid: &PlanningGrid, points: &[Point2]) -> (f64, f64) {
     let (mut blocked_len, mut cost_len) = (0.0, 0.0);
+    let cells = grid.cell_reader();
     for w in points.windows(2) {
         let (mut total, mut blocked, mut cost) = (0u32, 0u32, 0u32);
         supercover(w[0], w[1], |c| {
-            let (free, c) = grid.free_and_cost(c);
+            let (free, c) = cells.free_and_cost(c);
             total += 1;
             blocked += u32::from(!free);
             cost += u32::from(c);

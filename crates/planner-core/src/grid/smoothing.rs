@@ -43,10 +43,11 @@ pub fn delete_redundant_weighted(
     if points.len() <= 2 || !(multiplier.is_finite() && multiplier > 0.0) {
         return delete_redundant(grid, points);
     }
+    let cells = grid.cell_reader();
     let weighted = |a: Point2, b: Point2| -> Option<f64> {
         let (mut total, mut cost) = (0u32, 0u64);
         let free = supercover(a, b, |c| {
-            let (free, v) = grid.free_and_cost(c);
+            let (free, v) = cells.free_and_cost(c);
             total += 1;
             cost += u64::from(v);
             free
