@@ -17,7 +17,7 @@
 //! interrupted (then the best path so far comes back). The delete operation (genetic algorithm
 //! paper 4.5) is applied to the returned path by default: colony paths are staircases. Beyond
 //! the papers, after each iteration a local search reroutes the best-so-far ant
-//! ([`ColonyParams::local_search`]) before the global update reinforces it.
+//! ([`ColonyParams::local_search`]); in `eapf_iaco` the global update then reinforces it.
 //!
 //! Decisions where the paper is silent (each a parameter):
 //! - pheromone lives on cells: eq. 18 assigns it to grid positions, so `tau_ij` is read as the
@@ -109,11 +109,12 @@ pub struct ColonyParams {
     /// Beyond the papers: a local search on the best-so-far ant after each iteration's walks,
     /// this many tries of IMGA's reroute ([`crate::genetic::reroute`]: a stretch of the path
     /// replaced by median insertion through a random cell near its middle), each kept when its
-    /// straightened path is a better answer (under `judge: pulled` only). The best-so-far is
-    /// what eq. 20-22 reinforce, so the ants then follow the improved path. Ants and local
-    /// search together are the usual ACO (Dorigo and Stuetzle 2004, ch. 3.7); the ants' 8-cell
-    /// steps seldom leave the staircase they all share near the field's path. Default 2; 0
-    /// (config/paper.yaml) is the papers' colony.
+    /// straightened path is a better answer (under `judge: pulled` only). In `eapf_iaco` the
+    /// best-so-far is what eq. 20-22 reinforce, so the ants then follow the improved path; the
+    /// baselines' ant system deposits only the ants' own walks, so there it improves the answer
+    /// alone. Ants and local search together are the usual ACO (Dorigo and Stuetzle 2004,
+    /// ch. 3.7); the ants' 8-cell steps seldom leave the staircase they all share near the
+    /// field's path. Default 2; 0 (config/paper.yaml) is the papers' colony.
     pub local_search: usize,
 }
 
@@ -494,7 +495,9 @@ impl<'a> Colony<'a> {
     /// answer in turn.
     fn local_search(&mut self, ctx: &mut PlanContext<'_>) {
         let grid = self.problem.grid;
-        let budget = (4 * (grid.width() + grid.height())) + 8;
+        // Median insertions allowed per reroute: one per step an ant may take (IMGA's default
+        // budget at the default step budget).
+        let budget = self.steps + 8;
         for _ in 0..self.planner.params.local_search {
             let Some((cells, _)) = self.best.as_ref() else {
                 return;
@@ -836,8 +839,9 @@ mod tests {
                 })
                 .count()
         };
-        let (without, with) = (improved(0), improved(8));
+        let (without, default, with) = (improved(0), improved(2), improved(8));
         assert!(without <= 7 && with >= 12, "{without} -> {with}");
+        assert!(default >= without, "{without} -> {default}");
     }
 
     /// Judged by its straightened path, the improved colony returns a better answer than the

@@ -337,9 +337,10 @@ impl PlanningGrid {
 
     /// A reader of [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] together, with the cost
     /// table looked up once: the swarms' safety objective and the weighted delete operation ask
-    /// both of every cell a candidate path crosses, thousands of times per plan, and the per-cell
-    /// check of which table holds the costs (and, for the model's, whether it exists yet) was a
-    /// third of the safety objective's extra time.
+    /// both of every cell a candidate path crosses, thousands of times per plan: which table holds
+    /// the costs (and, for the model's, whether it exists yet) is then settled once per path, not
+    /// once per cell.
+    #[inline]
     pub fn cell_reader(&self) -> CellReader<'_> {
         let table = match &self.given_costs {
             Some(given) => CostTable::Given(given),
