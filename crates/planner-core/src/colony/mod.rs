@@ -53,9 +53,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ColonyParams {
-    /// Ants per iteration. Default 30; the paper's 100 (config/paper.yaml) was for 20 x 20
+    /// Ants per iteration. Default 20; the paper's 100 (config/paper.yaml) was for 20 x 20
     /// grids where most ants wandered: with the navigation guidance below ants find the goal,
-    /// and 30 give the same answers on Nav2's 2000 x 2000 map at a third of the time (issue 12).
+    /// and 30 gave the same answers on Nav2's 2000 x 2000 map at a third of the time (issue 12);
+    /// with the local search below, 20 are faster and better than 30
+    /// (docs/results/real_scale.md).
     pub ants: usize,
     /// Iterations. Default 100 (paper).
     pub iterations: usize,
@@ -137,7 +139,7 @@ pub enum Judge {
 impl Default for ColonyParams {
     fn default() -> Self {
         Self {
-            ants: 30,
+            ants: 20,
             iterations: 100,
             patience: 10,
             alpha: 1.0,
@@ -816,8 +818,8 @@ mod tests {
 
     /// At a real map's resolution ([`crate::test_support::split_room_fine`]) the ants seldom
     /// leave the staircase near the field's path: with no local search the improved colony
-    /// beats its seed on 6 of 16 seeds; with 8 reroutes of the best-so-far per iteration on
-    /// 13 (measured: 2 give 7, 4 give 10).
+    /// beats its seed on 5 of 16 seeds; with 8 reroutes of the best-so-far per iteration on
+    /// 13 (measured: 2, the default, give 5 in this small room, 4 give 8).
     #[test]
     fn local_search_beats_the_seed_more_often() {
         use crate::test_support::{solve_seeded, split_room_fine};
