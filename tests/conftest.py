@@ -71,7 +71,7 @@ class Ros:
         self.node = rclpy.create_node(f"patrol_planner_test_{os.getpid()}", context=context)
         self.executor.add_node(self.node)
         self.plans, self.diagnostics, self.maps = [], [], []
-        self.node.create_subscription(PathMsg, "/plan", self.plans.append, LATCHED)
+        self.plan_sub = self.node.create_subscription(PathMsg, "/plan", self.plans.append, LATCHED)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics.append, 50)
         self.map_pub = self.node.create_publisher(OccupancyGrid, "/map", LATCHED)
         self.goal_pub = self.node.create_publisher(PoseStamped, "/goal_pose", 10)
@@ -103,10 +103,14 @@ class Ros:
             lambda: next((d for d in self.diagnostics_since(index) if d[0] == code), None), timeout, f"result {code} on /diagnostics"
         )
 
-    def send_goal_until_planned(self, goal, timeout=30):
+    def send_goal_until_planned(self, goal, timeout=45):
         """Publishes the PoseStamped `goal` once a second until a non-empty /plan answers (a goal
-        that overtakes the node's map or odometry on the wire gets an error: ask again)."""
+        that overtakes the node's map or odometry on the wire gets an error: ask again). Both
+        directions are matched first: RustDDS announces its participants every 10 s, so one lost
+        discovery exchange under load delays a match by 10-20 s (tests/test_replan.py once timed out
+        after 30 s while the node planned every second and no /plan arrived)."""
         self.wait_matched(self.goal_pub, "/goal_pose")
+        self.spin_until(lambda: self.plan_sub.get_publisher_count() > 0, 45, "the node's /plan to match")
 
         def planned():
             before = len(self.plans)

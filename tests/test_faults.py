@@ -410,6 +410,14 @@ def param_nan_max_planning_time(f):
     return out
 
 
+@fault("param_huge_max_planning_time")
+def param_huge_max_planning_time(f):
+    # A deadline 1e19 s away overflows the clock: every plan would have failed.
+    out = refused_param(f, "max_planning_time", 1e19, "max_planning_time")
+    assert f.get_param("max_planning_time").double_value == 5.0
+    return out
+
+
 @fault("param_negative_tolerance")
 def param_negative_tolerance(f):
     return refused_param(f, "tolerance", -0.5, "tolerance")

@@ -63,6 +63,9 @@ pub fn default_planner() -> PlannerName {
 pub fn default_tolerance() -> f64 {
     0.25
 }
+/// The longest `max_planning_time` (s), a day: a deadline far beyond it overflows the clock.
+pub const MAX_PLANNING_TIME: f64 = 86_400.0;
+
 pub fn default_max_planning_time() -> f64 {
     5.0
 }
@@ -98,8 +101,12 @@ impl PlannerConfig {
             &[
                 ("tolerance", self.tolerance),
                 ("start_tolerance", self.start_tolerance),
-                ("max_planning_time", self.max_planning_time),
             ],
+        )?;
+        // A day: beyond it the deadline would overflow the clock.
+        check(
+            Range::Within(0.0, MAX_PLANNING_TIME),
+            &[("max_planning_time", self.max_planning_time)],
         )?;
         // At least 1 MiB, at most 1 TiB: the bytes must fit a u64 and mean something.
         check(
@@ -153,5 +160,36 @@ mod tests {
         assert!(err.to_string().contains("planer"), "{err}");
         let ok: PlannerConfig = serde_yaml::from_str("planner: astar\n").unwrap();
         assert_eq!(ok.planner, PlannerName::Astar);
+    }
+
+    /// A value that would exhaust memory or hold a plan past its deadline is refused, naming the
+    /// parameter (such values crashed `patrol-plan plan` by a failed allocation, or held it for
+    /// hours, before counts had an upper bound); the defaults pass.
+    #[test]
+    fn huge_counts_and_factors_are_refused_by_name() {
+        for (section, key, value) in [
+            ("swarm", "population", "1000000000000"),
+            ("swarm", "archive_size", "1000000000000"),
+            ("swarm", "waypoints", "100000"),
+            ("swarm", "smp", "1000000"),
+            ("nsga2", "population", "100000"),
+            ("colony", "ants", "1000000000"),
+            ("colony", "local_search", "1000000"),
+            ("colony", "step_budget_factor", "1.0e12"),
+            ("genetic", "population", "1000000000000"),
+            ("genetic", "init_attempts", "1000000"),
+            ("genetic", "corridor", "1.0e8"),
+            ("apf", "sweep_step_deg", "1.0e-300"),
+            ("apf", "stall_window", "18446744073709551615"),
+            ("apf", "step_budget_factor", "1.0e12"),
+        ] {
+            let yaml = format!("{section}:\n  {key}: {value}\n");
+            let config: PlannerConfig = serde_yaml::from_str(&yaml).unwrap();
+            let err = config.validate().unwrap_err();
+            assert_eq!(err.name, format!("{section}.{key}"), "{yaml}");
+        }
+        let day: PlannerConfig = serde_yaml::from_str("max_planning_time: 1.0e19\n").unwrap();
+        assert_eq!(day.validate().unwrap_err().name, "max_planning_time");
+        assert!(PlannerConfig::default().validate().is_ok());
     }
 }

@@ -34,6 +34,8 @@ pub enum Range {
     Above(f64),
     /// Within `lo..=hi`.
     Within(f64, f64),
+    /// Greater than 0 and at most the bound.
+    PositiveUpTo(f64),
 }
 
 impl Range {
@@ -45,6 +47,7 @@ impl Range {
             Range::OpenUnit => v > 0.0 && v < 1.0,
             Range::Above(b) => v.is_finite() && v > b,
             Range::Within(lo, hi) => (lo..=hi).contains(&v),
+            Range::PositiveUpTo(hi) => v > 0.0 && v <= hi,
         }
     }
 
@@ -56,6 +59,7 @@ impl Range {
             Range::OpenUnit => "strictly between 0 and 1".into(),
             Range::Above(b) => format!("a finite number above {b}"),
             Range::Within(lo, hi) => format!("within {lo}..={hi}"),
+            Range::PositiveUpTo(hi) => format!("positive and at most {hi}"),
         }
     }
 }
@@ -66,16 +70,26 @@ pub fn check(range: Range, params: &[(&str, f64)]) -> Result<(), ParamError> {
     match params.iter().find(|(_, v)| !range.holds(*v)) {
         Some((name, v)) => Err(ParamError::new(
             *name,
-            format!("{v} is not {}", range.describe()),
+            // Debug: the shortest exact form (1e-300, not three hundred digits).
+            format!("{v:?} is not {}", range.describe()),
         )),
         None => Ok(()),
     }
 }
 
-/// Checks that every `(name, count)` is at least `min`.
-pub fn check_counts(min: usize, params: &[(&str, usize)]) -> Result<(), ParamError> {
-    match params.iter().find(|(_, v)| *v < min) {
-        Some((name, v)) => Err(ParamError::new(*name, format!("{v} is less than {min}"))),
+/// Checks that every `(name, count)` lies in `range`. Every count has an upper bound: a
+/// population, an archive or a number of tries sizes tables and loops that run between two polls
+/// of the deadline, so a huge value would exhaust memory or hold the plan past its time budget.
+/// The bounds are generous, 10-100 x the defaults.
+pub fn check_counts(
+    range: std::ops::RangeInclusive<usize>,
+    params: &[(&str, usize)],
+) -> Result<(), ParamError> {
+    match params.iter().find(|(_, v)| !range.contains(v)) {
+        Some((name, v)) => Err(ParamError::new(
+            *name,
+            format!("{v} is not within {}..={}", range.start(), range.end()),
+        )),
         None => Ok(()),
     }
 }
@@ -95,6 +109,16 @@ mod tests {
         assert!(check(Range::Within(1.0, 2.0), &[("w", f64::NAN)]).is_err());
         assert!(check(Range::Within(1.0, 2.0), &[("w", 2.5)]).is_err());
         assert!(check(Range::Within(1.0, 2.0), &[("w", 2.0)]).is_ok());
-        assert_eq!(check_counts(2, &[("k", 1)]).unwrap_err().name, "k");
+        assert!(check(Range::PositiveUpTo(2.0), &[("p", 0.0)]).is_err());
+        assert!(check(Range::PositiveUpTo(2.0), &[("p", f64::NAN)]).is_err());
+        assert!(check(Range::PositiveUpTo(2.0), &[("p", 2.0)]).is_ok());
+        assert_eq!(check_counts(2..=9, &[("k", 1)]).unwrap_err().name, "k");
+        assert_eq!(
+            check_counts(2..=9, &[("j", 9), ("k", 10)])
+                .unwrap_err()
+                .name,
+            "k"
+        );
+        assert!(check_counts(2..=9, &[("k", 2), ("j", 9)]).is_ok());
     }
 }

@@ -128,6 +128,18 @@ impl NodeParams {
                     .into(),
             );
         }
+        // Periods become timers: one too short is a busy loop (or a zero period, which the
+        // timer refuses), one too long overflows the clock.
+        if self.control_rate_hz < 0.1
+            || !(self.bond_heartbeat_period == 0.0
+                || (0.01..=60.0).contains(&self.bond_heartbeat_period))
+            || self.waypoint_pause_duration > 3_600.0
+        {
+            return Err(
+                "control_rate_hz must be at least 0.1, bond_heartbeat_period 0 (off) or within 0.01..=60 s, waypoint_pause_duration at most 3600 s"
+                    .into(),
+            );
+        }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
             return Err("map_to_odom must be finite".into());
         }

@@ -92,13 +92,18 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
             .parse::<PlannerName>()
             .map(|_| ())
             .map_err(|e| e.to_string()),
-        ("max_planning_time" | "tolerance", ParameterValue::Double(v))
-            if v.is_finite() && *v >= 0.0 =>
+        ("max_planning_time", ParameterValue::Double(v))
+            if (0.0..=planner_core::config::MAX_PLANNING_TIME).contains(v) =>
         {
             Ok(())
         }
-        ("max_planning_time" | "tolerance", v) => Err(format!(
-            "{name} must be a finite non-negative double, not {v:?}"
+        ("max_planning_time", v) => Err(format!(
+            "max_planning_time must be a double within 0..={} s, not {v:?}",
+            planner_core::config::MAX_PLANNING_TIME
+        )),
+        ("tolerance", ParameterValue::Double(v)) if v.is_finite() && *v >= 0.0 => Ok(()),
+        ("tolerance", v) => Err(format!(
+            "tolerance must be a finite non-negative double, not {v:?}"
         )),
         ("planner", v) => Err(format!("planner must be a string, not {v:?}")),
         // The range is the planners' own rule. It is checked here, before anything is stored,

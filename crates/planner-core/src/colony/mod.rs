@@ -162,13 +162,20 @@ impl Default for ColonyParams {
 
 impl ColonyParams {
     pub fn validate(&self) -> Result<(), ParamError> {
+        check_counts(1..=1_000, &[("colony.ants", self.ants)])?;
         check_counts(
-            1,
+            1..=1_000_000,
             &[
-                ("colony.ants", self.ants),
                 ("colony.iterations", self.iterations),
                 ("colony.patience", self.patience),
             ],
+        )?;
+        check_counts(0..=100, &[("colony.local_search", self.local_search)])?;
+        // An ant's walk is allocated for this many (width + height) steps, and every walk that
+        // arrives is kept until the iteration's end.
+        check(
+            Range::PositiveUpTo(20.0),
+            &[("colony.step_budget_factor", self.step_budget_factor)],
         )?;
         check(
             Range::OpenUnit,
@@ -185,7 +192,6 @@ impl ColonyParams {
                 ("colony.initial_pheromone", self.initial_pheromone),
                 ("colony.band", self.band),
                 ("colony.tau_min", self.tau_min),
-                ("colony.step_budget_factor", self.step_budget_factor),
             ],
         )?;
         check(
@@ -627,6 +633,11 @@ impl Population for Colony<'_> {
         let mut finished: Vec<(Vec<Cell>, f64)> = Vec::new();
         let mut walks = Vec::new();
         for _ in 0..p.ants {
+            // The driver polls between iterations; one iteration of many ants on a large map
+            // is long enough that a deadline or a cancel should not wait for all of them.
+            if (ctx.interrupt)().is_some() {
+                break;
+            }
             let reached = self.walk_one_ant(ctx);
             self.ants_run += 1;
             if reached {

@@ -132,9 +132,17 @@ impl ApfParams {
                 ("apf.chassis_radius", self.radius()),
                 ("apf.traction_radius", self.traction_radius),
                 ("apf.traction_distance", self.traction_distance),
-                ("apf.sweep_step_deg", self.sweep_step_deg),
-                ("apf.step_budget_factor", self.step_budget_factor),
             ],
+        )?;
+        // The escape sweeps pi / step directions; the descent runs this many (width + height)
+        // steps between two polls of the deadline.
+        check(
+            Range::Within(0.05, 180.0),
+            &[("apf.sweep_step_deg", self.sweep_step_deg)],
+        )?;
+        check(
+            Range::PositiveUpTo(100.0),
+            &[("apf.step_budget_factor", self.step_budget_factor)],
         )?;
         check(
             Range::NonNegative,
@@ -147,7 +155,7 @@ impl ApfParams {
             Range::Above(1.0),
             &[("apf.traction_growth", self.traction_growth)],
         )?;
-        check_counts(1, &[("apf.stall_window", self.stall_window)])
+        check_counts(1..=10_000, &[("apf.stall_window", self.stall_window)])
     }
 }
 

@@ -160,13 +160,24 @@ impl Default for GaParams {
 
 impl GaParams {
     pub fn validate(&self) -> Result<(), ParamError> {
-        check_counts(2, &[("genetic.population", self.population)])?;
+        check_counts(2..=3_000, &[("genetic.population", self.population)])?;
         check_counts(
-            1,
+            1..=1_000_000,
             &[
                 ("genetic.generations", self.generations),
                 ("genetic.patience", self.patience),
-                ("genetic.init_attempts", self.init_attempts),
+            ],
+        )?;
+        check_counts(1..=100, &[("genetic.init_attempts", self.init_attempts)])?;
+        // Multiples of the map's size (the corridor of initial paths, the insertions allowed).
+        check(
+            Range::Within(0.0, 100.0),
+            &[
+                ("genetic.corridor", self.corridor),
+                (
+                    "genetic.insertion_budget_factor",
+                    self.insertion_budget_factor,
+                ),
             ],
         )?;
         check(
@@ -183,11 +194,6 @@ impl GaParams {
                 ("genetic.weight_safety", self.weight_safety),
                 ("genetic.weight_energy", self.weight_energy),
                 ("genetic.weight_cost", self.weight_cost),
-                ("genetic.corridor", self.corridor),
-                (
-                    "genetic.insertion_budget_factor",
-                    self.insertion_budget_factor,
-                ),
             ],
         )
     }

@@ -181,15 +181,15 @@ impl Default for SwarmParams {
 impl SwarmParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         check_counts(
-            1,
+            1..=10_000,
             &[
                 ("swarm.population", self.population),
-                ("swarm.waypoints", self.waypoints),
-                ("swarm.iterations", self.iterations),
-                ("swarm.smp", self.smp),
                 ("swarm.archive_size", self.archive_size),
             ],
         )?;
+        check_counts(1..=1_000, &[("swarm.waypoints", self.waypoints)])?;
+        check_counts(1..=100, &[("swarm.smp", self.smp)])?;
+        check_counts(1..=1_000_000, &[("swarm.iterations", self.iterations)])?;
         check(
             Range::Share,
             &[
