@@ -213,6 +213,79 @@ mod tests {
         assert!(err.to_string().contains("astar") && err.to_string().contains("dijkstra"));
     }
 
+    /// A deadline that passes while a planner starts or runs stops it with its best path so far
+    /// or TimedOut, never a panic, and it asks again at most 3 times; the swarms and NSGA-II stop
+    /// their start at once (a start of 2 000 members evaluates the seed and no more), so a large
+    /// population no longer holds the plan for a whole start or iteration.
+    #[test]
+    fn a_deadline_stops_every_planner_at_once() {
+        use crate::planner::{solve, Interrupt, PlanContext, PlanError, SolveOptions};
+        use crate::test_support::{hall, rng};
+        use std::cell::Cell;
+        let (grid, q) = hall(true);
+        for name in PlannerName::ALL {
+            let config = PlannerConfig {
+                planner: name,
+                ..PlannerConfig::default()
+            };
+            let planner = build(&config).unwrap();
+            for fire_at in [1u32, 5, 40] {
+                let polls = Cell::new(0u32);
+                let interrupt = || {
+                    polls.set(polls.get() + 1);
+                    (polls.get() >= fire_at).then_some(Interrupt::Deadline)
+                };
+                let mut r = rng(1);
+                let mut ctx = PlanContext::new(&mut r, &interrupt);
+                match solve(
+                    planner.as_ref(),
+                    &grid,
+                    &q,
+                    SolveOptions::default(),
+                    &mut ctx,
+                ) {
+                    Ok(plan) => assert!(plan.metrics.collision_free, "{name:?}"),
+                    Err(PlanError::TimedOut) => {}
+                    Err(e) => panic!("{name:?} at poll {fire_at}: {e}"),
+                }
+                let after = polls.get().saturating_sub(fire_at);
+                assert!(
+                    after <= 3,
+                    "{name:?}: {after} polls after the deadline at {fire_at}"
+                );
+            }
+        }
+        for name in [PlannerName::Mocmcso, PlannerName::Pso, PlannerName::Nsga2] {
+            let mut config = PlannerConfig {
+                planner: name,
+                ..PlannerConfig::default()
+            };
+            config.swarm.population = 2_000;
+            config.nsga2.population = 2_000;
+            let planner = build(&config).unwrap();
+            let interrupt = || Some(Interrupt::Deadline);
+            let mut r = rng(1);
+            let mut ctx = PlanContext::new(&mut r, &interrupt);
+            let plan = solve(
+                planner.as_ref(),
+                &grid,
+                &q,
+                SolveOptions::default(),
+                &mut ctx,
+            )
+            .unwrap_or_else(|e| panic!("{name:?}: {e}"));
+            assert!(
+                plan.stats.cut_short && plan.metrics.collision_free,
+                "{name:?}"
+            );
+            assert!(
+                plan.stats.evaluations <= 2,
+                "{name:?}: {}",
+                plan.stats.evaluations
+            );
+        }
+    }
+
     /// A goal in the start's own cell (or equal to the start) is answered by every planner with
     /// the straight segment inside that cell, as Nav2's planners answer it, not a panic (the
     /// swarms' encodings used to panic on it).

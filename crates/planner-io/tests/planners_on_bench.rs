@@ -118,11 +118,13 @@ fn an_interrupted_swarm_returns_its_best_so_far() {
     })
     .unwrap();
     let mut rng = PlannerRng::seed_from_u64(0);
-    // The deadline passes at the fifth poll: after the seed, a few iterations in.
+    // The deadline passes at the 200th poll: the swarm asks before each of its 50 cats, in its
+    // start and in every iteration, and the driver once per iteration, so this is after the seed
+    // and the start, a few iterations in.
     let polls = std::cell::Cell::new(0);
     let interrupt = || {
         polls.set(polls.get() + 1);
-        (polls.get() >= 5).then_some(planner_core::planner::Interrupt::Deadline)
+        (polls.get() >= 200).then_some(planner_core::planner::Interrupt::Deadline)
     };
     let ctx = &mut PlanContext::new(&mut rng, &interrupt);
     let plan = solve(planner.as_ref(), &grid, &q, SolveOptions::default(), ctx).unwrap();

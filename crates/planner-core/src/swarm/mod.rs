@@ -471,12 +471,17 @@ impl Population for Swarm<'_> {
         self.archive.offer(&self.seed, seed_eval);
         self.best = (self.seed.clone(), seed_eval);
         for k in 0..p.population {
+            // A deadline during the start leaves a smaller population (the seed at least);
+            // every later loop runs over the members there are.
+            if k > 0 && (ctx.interrupt)().is_some() {
+                break;
+            }
             let (x, e) = search.initial_member(&self.seed, seed_eval, k, ctx);
             search.offer(&mut self.archive, &mut self.best, &x, e);
             self.xs.push(x);
             self.evals.push(e);
         }
-        self.vs = vec![vec![0.0; self.seed.len()]; p.population];
+        self.vs = vec![vec![0.0; self.seed.len()]; self.xs.len()];
         self.pbest = self
             .xs
             .iter()
@@ -513,7 +518,12 @@ impl Population for Swarm<'_> {
         for (x, _) in &self.archive.members {
             self.leaders.extend_from_slice(x);
         }
-        for k in 0..p.population {
+        for k in 0..self.xs.len() {
+            // The driver polls between iterations; a large population of long paths makes one
+            // iteration long enough that a deadline or a cancel should not wait for every cat.
+            if (ctx.interrupt)().is_some() {
+                break;
+            }
             let leader = search.leader(&self.leaders, &crowding, &self.best, ctx);
             if variant.is_cat() && ctx.rng.random::<f64>() < mr {
                 // Seeking mode.

@@ -267,6 +267,10 @@ impl Population for Nsga2<'_> {
         stats.counters.extend(start.counters);
         let seed_eval = self.search.evaluate_seed(&self.seed);
         for k in 0..self.params.population {
+            // A deadline during the start leaves a smaller population (the seed at least).
+            if k > 0 && (ctx.interrupt)().is_some() {
+                break;
+            }
             let (x, e) = self.search.initial_member(&self.seed, seed_eval, k, ctx);
             self.pop.push(Member {
                 x,
@@ -287,6 +291,11 @@ impl Population for Nsga2<'_> {
         let dim = lo.len();
         let mut offspring: Vec<Member> = Vec::with_capacity(n);
         while offspring.len() < n {
+            // A deadline or a cancel does not wait for the whole generation: survival works
+            // with fewer offspring.
+            if (ctx.interrupt)().is_some() {
+                break;
+            }
             let (a, b) = (self.tournament(ctx), self.tournament(ctx));
             let (mut x1, mut x2) = (self.pop[a].x.clone(), self.pop[b].x.clone());
             if ctx.rng.random::<f64>() < p.crossover_probability {
