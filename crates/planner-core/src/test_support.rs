@@ -73,6 +73,23 @@ pub fn solve_seeded(
     )
 }
 
+/// Of the runs of `planner` with random seeds `seeds`, how many answer better than the seed
+/// they started from (counter `improved_on_seed`); every answer must be collision-free.
+pub fn runs_improved_on_seed(
+    planner: &dyn crate::planner::Planner,
+    grid: &PlanningGrid,
+    query: &crate::planner::Query,
+    seeds: std::ops::RangeInclusive<u64>,
+) -> usize {
+    seeds
+        .filter(|&seed| {
+            let plan = solve_seeded(planner, grid, query, seed).unwrap();
+            assert!(plan.metrics.collision_free, "seed {seed}");
+            plan.stats.counters["improved_on_seed"] == 1.0
+        })
+        .count()
+}
+
 /// A 160 x 40 hall split by a wall with a gap at its top, start and goal in the two far
 /// bottom corners; or (`pillars`) a 100 x 60 hall with 2 x 2 pillars every 9 cells, start
 /// and goal in opposite corners.

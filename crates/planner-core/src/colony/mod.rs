@@ -635,7 +635,7 @@ impl Population for Colony<'_> {
         for _ in 0..p.ants {
             // The driver polls between iterations; one iteration of many ants on a large map
             // is long enough that a deadline or a cancel should not wait for all of them.
-            if (ctx.interrupt)().is_some() {
+            if ctx.check().is_err() {
                 break;
             }
             let reached = self.walk_one_ant(ctx);
@@ -833,7 +833,7 @@ mod tests {
     /// 13 (measured: 2, the default, give 5 in this small room, 4 give 8).
     #[test]
     fn local_search_beats_the_seed_more_often() {
-        use crate::test_support::{solve_seeded, split_room_fine};
+        use crate::test_support::{runs_improved_on_seed, split_room_fine};
         let (grid, q) = split_room_fine();
         let improved = |local_search| {
             let planner = ColonyPlanner {
@@ -844,13 +844,7 @@ mod tests {
                 },
                 apf: ApfParams::default(),
             };
-            (1..=16)
-                .filter(|&seed| {
-                    let plan = solve_seeded(&planner, &grid, &q, seed).unwrap();
-                    assert!(plan.metrics.collision_free);
-                    plan.stats.counters["improved_on_seed"] == 1.0
-                })
-                .count()
+            runs_improved_on_seed(&planner, &grid, &q, 1..=16)
         };
         let (without, default, with) = (improved(0), improved(2), improved(8));
         assert!(without <= 7 && with >= 12, "{without} -> {with}");

@@ -937,6 +937,18 @@ mod tests {
         }
     }
 
+    /// IMGA with the default parameters but its mutation.
+    fn imga_mutating_by(mutation: GaMutation) -> GaPlanner {
+        GaPlanner {
+            variant: GaVariant::Imga,
+            params: GaParams {
+                mutation,
+                ..Default::default()
+            },
+            apf: crate::field::ApfParams::default(),
+        }
+    }
+
     /// In a hall of pillars, judged by the path it straightens into, the seeded IMGA returns an
     /// answer better than the field's path it starts from, whatever the seed; judged by fitness
     /// (the paper's answer, here with the seed) the fittest path is not (seed 5: the fitness
@@ -962,25 +974,10 @@ mod tests {
     /// filling the places random initial paths could not) it beats it on all 8.
     #[test]
     fn rerouting_beats_the_seed_where_one_cell_moves_do_not() {
-        use crate::test_support::{solve_seeded, split_room_fine};
+        use crate::test_support::{runs_improved_on_seed, split_room_fine};
         let (grid, q) = split_room_fine();
-        let improved = |mutation| {
-            let planner = GaPlanner {
-                variant: GaVariant::Imga,
-                params: GaParams {
-                    mutation,
-                    ..Default::default()
-                },
-                apf: crate::field::ApfParams::default(),
-            };
-            (1..=8)
-                .filter(|&seed| {
-                    let plan = solve_seeded(&planner, &grid, &q, seed).unwrap();
-                    assert!(plan.metrics.collision_free);
-                    plan.stats.counters["improved_on_seed"] == 1.0
-                })
-                .count()
-        };
+        let improved =
+            |mutation| runs_improved_on_seed(&imga_mutating_by(mutation), &grid, &q, 1..=8);
         assert_eq!(improved(GaMutation::Reroute), 8);
         assert!(improved(GaMutation::Neighbour) <= 4);
     }
@@ -994,15 +991,7 @@ mod tests {
         use crate::test_support::{hall, solve_seeded};
         let (grid, q) = hall(false);
         let run = |mutation| {
-            let planner = GaPlanner {
-                variant: GaVariant::Imga,
-                params: GaParams {
-                    mutation,
-                    ..Default::default()
-                },
-                apf: crate::field::ApfParams::default(),
-            };
-            let plan = solve_seeded(&planner, &grid, &q, 1).unwrap();
+            let plan = solve_seeded(&imga_mutating_by(mutation), &grid, &q, 1).unwrap();
             assert!(plan.metrics.collision_free);
             let per_generation = plan.stats.evaluations as f64 / plan.stats.iterations as f64;
             let variants = plan.stats.counters.get("seed_variants").copied();

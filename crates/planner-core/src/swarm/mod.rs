@@ -473,7 +473,7 @@ impl Population for Swarm<'_> {
         for k in 0..p.population {
             // A deadline during the start leaves a smaller population (the seed at least);
             // every later loop runs over the members there are.
-            if k > 0 && (ctx.interrupt)().is_some() {
+            if k > 0 && ctx.check().is_err() {
                 break;
             }
             let (x, e) = search.initial_member(&self.seed, seed_eval, k, ctx);
@@ -521,7 +521,7 @@ impl Population for Swarm<'_> {
         for k in 0..self.xs.len() {
             // The driver polls between iterations; a large population of long paths makes one
             // iteration long enough that a deadline or a cancel should not wait for every cat.
-            if (ctx.interrupt)().is_some() {
+            if ctx.check().is_err() {
                 break;
             }
             let leader = search.leader(&self.leaders, &crowding, &self.best, ctx);

@@ -268,7 +268,7 @@ impl Population for Nsga2<'_> {
         let seed_eval = self.search.evaluate_seed(&self.seed);
         for k in 0..self.params.population {
             // A deadline during the start leaves a smaller population (the seed at least).
-            if k > 0 && (ctx.interrupt)().is_some() {
+            if k > 0 && ctx.check().is_err() {
                 break;
             }
             let (x, e) = self.search.initial_member(&self.seed, seed_eval, k, ctx);
@@ -293,7 +293,7 @@ impl Population for Nsga2<'_> {
         while offspring.len() < n {
             // A deadline or a cancel does not wait for the whole generation: survival works
             // with fewer offspring.
-            if (ctx.interrupt)().is_some() {
+            if ctx.check().is_err() {
                 break;
             }
             let (a, b) = (self.tournament(ctx), self.tournament(ctx));
