@@ -426,13 +426,16 @@ pub fn wavefront(
     let mut settled = vec![false; info.cell_count()];
     w.reached[info.index(goal)] = true;
     let mut heap = BinaryHeap::new();
-    // Keys are non-negative: their bit patterns order like the numbers. Ties on f go to the
-    // larger distance (the cell nearer the start), then the smaller index: fully deterministic.
-    let key = |d: f64, c: Cell| {
+    // Keys are non-negative: their bit patterns order like the numbers; ties on f go to the
+    // smaller index. The entries are small (16 B) because the heap is most of the time. The
+    // order among equal keys changes no value: every cell with f at most the stop value below
+    // is settled with its exact distance, and a reached cell's bound is the least over its
+    // settled neighbours, whatever the order they were settled in.
+    let key = |d: f64, c: Cell, i: usize| {
         let f = d + octile(c, start) * res;
-        Reverse((f.to_bits(), Reverse(d.to_bits())))
+        Reverse((f.to_bits(), i as u32))
     };
-    heap.push((key(0.0, goal), Reverse(info.index(goal))));
+    heap.push(key(0.0, goal, info.index(goal)));
     let mut popped = 0u64;
     // Once the start is settled at f*, the search goes on until f passes f* + WAVEFRONT_MARGIN_M:
     // every cell of a path at most that much longer than the shortest is then settled with its
@@ -440,7 +443,8 @@ pub fn wavefront(
     // shortest path (stopping at the start left its neighbours with upper bounds, and the
     // descent staircased along the search's own order: 2 x the turning).
     let mut stop_at = f64::INFINITY;
-    while let Some((Reverse((f_bits, _)), Reverse(i))) = heap.pop() {
+    while let Some(Reverse((f_bits, i))) = heap.pop() {
+        let i = i as usize;
         if settled[i] {
             continue;
         }
@@ -468,7 +472,7 @@ pub fn wavefront(
             if !settled[j] && (!w.reached[j] || dn < w.d[j]) {
                 w.d[j] = dn;
                 w.reached[j] = true;
-                heap.push((key(dn, n), Reverse(j)));
+                heap.push(key(dn, n, j));
             }
         }
     }
