@@ -121,7 +121,14 @@ impl Clone for CostMemo {
 #[derive(Clone, Copy)]
 enum CostTable<'a> {
     Given(&'a [u8]),
-    Memo(&'a [std::sync::atomic::AtomicU8]),
+    /// The model's memo. `free_by_cost`: every free cell's model cost is below [`INSCRIBED`]
+    /// and every other cell's is not (the grid's free radius is at least the model's inscribed
+    /// radius, as every grid built from a map has it), so the cost alone says whether a cell
+    /// is free: one table read instead of two.
+    Memo {
+        memo: &'a [std::sync::atomic::AtomicU8],
+        free_by_cost: bool,
+    },
 }
 
 /// [`PlanningGrid::cell_reader`]: freedom and cost of cells of one grid.
@@ -139,8 +146,16 @@ impl CellReader<'_> {
         if !g.info.contains(c) {
             return (false, LETHAL);
         }
+        let i = g.info.index(c);
+        if let CostTable::Memo {
+            free_by_cost: true, ..
+        } = self.table
+        {
+            let v = self.cost_at_index(c, i);
+            return (v < INSCRIBED, v);
+        }
         let free = g.padded_free[(c.y as usize + 1) * (g.width() + 2) + c.x as usize + 1];
-        (free, self.cost_at_index(c, g.info.index(c)))
+        (free, self.cost_at_index(c, i))
     }
 
     /// The cost of cell `c`, inside the map, at row-major index `i`.
@@ -149,7 +164,7 @@ impl CellReader<'_> {
         use std::sync::atomic::Ordering;
         match self.table {
             CostTable::Given(given) => given[i],
-            CostTable::Memo(memo) => match memo[i].load(Ordering::Relaxed) {
+            CostTable::Memo { memo, .. } => match memo[i].load(Ordering::Relaxed) {
                 NOT_YET => self.fill(c, i, memo),
                 v => v,
             },
@@ -385,12 +400,17 @@ impl PlanningGrid {
     pub fn cell_reader(&self) -> CellReader<'_> {
         let table = match &self.given_costs {
             Some(given) => CostTable::Given(given),
-            None => CostTable::Memo(self.model_costs.0.get_or_init(|| {
-                use std::sync::atomic::AtomicU8;
-                (0..self.info.cell_count())
-                    .map(|_| AtomicU8::new(NOT_YET))
-                    .collect()
-            })),
+            None => CostTable::Memo {
+                memo: self.model_costs.0.get_or_init(|| {
+                    use std::sync::atomic::AtomicU8;
+                    (0..self.info.cell_count())
+                        .map(|_| AtomicU8::new(NOT_YET))
+                        .collect()
+                }),
+                // A free cell's clearance is above the free radius, so at or above the
+                // inscribed radius its model cost is at most 252; other cells get 253 or 254.
+                free_by_cost: self.costs.inscribed_radius <= self.inflation_radius,
+            },
         };
         CellReader { grid: self, table }
     }
@@ -646,6 +666,66 @@ mod tests {
                     .unwrap_or(None)
             })
             .collect()
+    }
+
+    /// The reader's one-read path (freedom from the model cost) and its two-read path agree
+    /// with `is_free` and `cost` cell by cell, the border outside included: on grids built from
+    /// a map, with a cost model whose inscribed radius passes the free radius (two reads), and
+    /// on a costmap.
+    #[test]
+    fn the_cell_reader_agrees_with_is_free_and_cost() {
+        use crate::test_support::{grid_with, rng};
+        use rand::Rng;
+        let mut r = rng(9);
+        let mask: Vec<bool> = (0..40 * 30).map(|_| r.random_bool(0.04)).collect();
+        let blocked = |x: usize, y: usize| mask[y * 40 + x];
+        let model = |inscribed: f64| CostModel {
+            inscribed_radius: inscribed,
+            inflation_radius: 1.0,
+            cost_scaling_factor: 3.0,
+        };
+        let levels: Vec<i8> = (0..40 * 30).map(|_| r.random_range(-1..=100)).collect();
+        let costmap = GridMap::new(
+            MapInfo {
+                width: 40,
+                height: 30,
+                resolution: 0.1,
+                origin: Pose2::default(),
+            },
+            levels,
+        )
+        .unwrap();
+        let grids = [
+            grid_with((40, 30), 0.1, 0.3, blocked),
+            grid_with((40, 30), 0.1, 0.3, blocked).with_costs(model(0.2)),
+            grid_with((40, 30), 0.1, 0.3, blocked).with_costs(model(0.3)),
+            grid_with((40, 30), 0.1, 0.3, blocked).with_costs(model(0.5)),
+            grid_with((40, 30), 0.1, 0.0, blocked),
+            PlanningGrid::from_costmap(&costmap, true),
+            PlanningGrid::from_costmap(&costmap, false),
+        ];
+        for (k, grid) in grids.iter().enumerate() {
+            let reader = grid.cell_reader();
+            let mut free = 0;
+            for y in -1..31 {
+                for x in -1..41 {
+                    let c = Cell::new(x, y);
+                    assert_eq!(
+                        reader.free_and_cost(c),
+                        (grid.is_free(c), grid.cost(c)),
+                        "grid {k} {c:?}"
+                    );
+                    free += usize::from(grid.is_free(c));
+                }
+            }
+            assert!(free > 100, "grid {k}: {free} free cells");
+        }
+        // With the inscribed radius past the free radius, free cells cost 253: the two-read path.
+        let wide = &grids[3];
+        assert!((0..30).any(|y| (0..40).any(|x| {
+            let c = Cell::new(x, y);
+            wide.is_free(c) && wide.cost(c) == INSCRIBED
+        })));
     }
 
     proptest! {
