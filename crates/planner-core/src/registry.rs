@@ -284,6 +284,38 @@ mod tests {
                 plan.stats.evaluations
             );
         }
+        // The genetic planners at their largest start (3 000 paths, 100 attempts each): after
+        // the deadline each answers with its seed (or, without one, times out).
+        for name in [PlannerName::Imga, PlannerName::Ga] {
+            let mut config = PlannerConfig {
+                planner: name,
+                ..PlannerConfig::default()
+            };
+            config.genetic.population = 3_000;
+            config.genetic.init_attempts = 100;
+            let planner = build(&config).unwrap();
+            let polls = Cell::new(0u32);
+            let interrupt = || {
+                polls.set(polls.get() + 1);
+                Some(Interrupt::Deadline)
+            };
+            let mut r = rng(1);
+            let mut ctx = PlanContext::new(&mut r, &interrupt);
+            match solve(
+                planner.as_ref(),
+                &grid,
+                &q,
+                SolveOptions::default(),
+                &mut ctx,
+            ) {
+                Ok(plan) => {
+                    assert!(plan.stats.cut_short && plan.metrics.collision_free);
+                    assert!(plan.stats.evaluations <= 2, "{}", plan.stats.evaluations);
+                }
+                Err(e) => assert_eq!(e, PlanError::TimedOut, "{name:?}"),
+            }
+            assert!(polls.get() <= 4, "{name:?}: {} polls", polls.get());
+        }
     }
 
     /// A goal in the start's own cell (or equal to the start) is answered by every planner with

@@ -320,6 +320,45 @@ impl GaParams {
     }
 }
 
+/// A population under construction that holds each path once: a path already held is refused
+/// in constant time (by its hash, then compared), where `Vec::contains` made building a large
+/// population quadratic (3 000 paths, 30 000 attempts each checked against all of them).
+struct DistinctPaths {
+    paths: Vec<Vec<Cell>>,
+    by_hash: FxHashMap<u64, Vec<usize>>,
+}
+
+impl DistinctPaths {
+    fn with_capacity(n: usize) -> Self {
+        Self {
+            paths: Vec::with_capacity(n),
+            by_hash: FxHashMap::default(),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.paths.len()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.paths.is_empty()
+    }
+
+    /// Adds `path` unless it is held already; returns whether it was added.
+    fn insert(&mut self, path: Vec<Cell>) -> bool {
+        let same = self
+            .by_hash
+            .entry(FxBuildHasher.hash_one(&path))
+            .or_default();
+        if same.iter().any(|&i| self.paths[i] == path) {
+            return false;
+        }
+        same.push(self.paths.len());
+        self.paths.push(path);
+        true
+    }
+}
+
 /// Layered selection (4.3.1): indices into a population sorted best first (ascending fitness).
 /// The first `N / 3` are taken twice, the next `N / 3` once, and the rest of the `N` places go to
 /// the best of the remaining layer.
@@ -591,7 +630,7 @@ impl Population for Generations<'_> {
                 (grid.is_free(c) && c != s && c != g).then_some(c)
             })
         };
-        let mut pop: Vec<Vec<Cell>> = Vec::with_capacity(p.population);
+        let mut pop = DistinctPaths::with_capacity(p.population);
         if p.seeded {
             let seed = crate::seed::field_or_astar(
                 &self.problem,
@@ -604,11 +643,14 @@ impl Population for Generations<'_> {
             if self.planner.pulled_judge() {
                 self.seed_cells = Some(seed.clone());
             }
-            pop.push(seed);
+            pop.insert(seed);
         }
         let mut discarded = 0u64;
+        // Each attempt may run a map-long median insertion: the deadline is polled before each
+        // (at the largest population and attempts, 300 000 of them), and the population starts
+        // with the paths made by then.
         for _ in 0..p.population * p.init_attempts {
-            if pop.len() == p.population {
+            if pop.len() == p.population || ctx.check().is_err() {
                 break;
             }
             let genes = match draw(ctx.rng) {
@@ -616,8 +658,9 @@ impl Population for Generations<'_> {
                 None => vec![s, g],
             };
             match connect(grid, genes, self.median, self.insertion_budget, ctx.rng) {
-                Some(path) if !pop.contains(&path) => pop.push(path),
-                Some(_) => {}
+                Some(path) => {
+                    pop.insert(path);
+                }
                 None => discarded += 1,
             }
         }
@@ -630,15 +673,14 @@ impl Population for Generations<'_> {
         // the seed instead.
         if self.planner.variant == GaVariant::Imga && p.mutation == GaMutation::Reroute && p.seeded
         {
-            if let Some(seed) = pop.first().cloned() {
+            if let Some(seed) = pop.paths.first().cloned() {
                 let mut variants = 0u64;
                 for _ in 0..p.population * p.init_attempts {
-                    if pop.len() == p.population {
+                    if pop.len() == p.population || ctx.check().is_err() {
                         break;
                     }
                     if let Some(path) = reroute(grid, &seed, self.insertion_budget, ctx.rng) {
-                        if !pop.contains(&path) {
-                            pop.push(path);
+                        if pop.insert(path) {
                             variants += 1;
                         }
                     }
@@ -651,11 +693,12 @@ impl Population for Generations<'_> {
             }
         }
         if pop.is_empty() {
+            ctx.check()?;
             return Err(PlanError::NoValidPath(format!(
                 "no initial path could be completed ({discarded} discarded)"
             )));
         }
-        self.scored = pop.into_iter().map(|c| (self.score(&c), c)).collect();
+        self.scored = pop.paths.into_iter().map(|c| (self.score(&c), c)).collect();
         self.scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         self.best = self.scored[0].clone();
         if self.planner.pulled_judge() {
@@ -708,9 +751,13 @@ impl Population for Generations<'_> {
                 }
             }
         }
-        // Mutation.
+        // Mutation. Each may run a long median insertion on a large map: the deadline is
+        // polled before each child, and a generation cut short leaves the population as it was.
         let reroutes = self.planner.variant == GaVariant::Imga && p.mutation == GaMutation::Reroute;
         for child in next.iter_mut() {
+            if ctx.check().is_err() {
+                return self.best.0;
+            }
             if ctx.rng.random::<f64>() < p.mutation_rate {
                 let mutated = if reroutes {
                     reroute(grid, child, self.insertion_budget, ctx.rng)
