@@ -172,8 +172,8 @@ pub enum PlanError {
     Cancelled,
     #[error("invalid request: {0}")]
     InvalidInput(String),
-    /// The planner's per-cell working tables on this map would exceed the plan's memory cap.
-    #[error("{planner} needs about {} MiB of working tables on this {cells}-cell map ({per_cell} B per cell), over the cap of {} MiB (max_plan_memory_mb)", .needed >> 20, .cap >> 20)]
+    /// The planner's working tables on this map would exceed the plan's memory cap.
+    #[error("{planner} needs about {} MiB of working tables on this {cells}-cell map ({per_cell} B per cell, and the paths it keeps), over the cap of {} MiB (max_plan_memory_mb)", .needed >> 20, .cap >> 20)]
     TooLarge {
         planner: PlannerName,
         cells: u64,
@@ -213,6 +213,13 @@ pub trait Planner: Send + Sync {
         ASTAR_BYTES_PER_CELL
     }
 
+    /// The bytes, at most, this planner holds in one plan on a `width x height` map beyond its
+    /// per-cell tables (paths kept across an iteration that may each be as long as the step
+    /// budget allows); counted against the same cap.
+    fn working_bytes_beyond_cells(&self, _width: usize, _height: usize) -> u64 {
+        0
+    }
+
     /// Plans on a validated problem. Pure: the result depends only on `self`, `problem` and the
     /// RNG's state (and on when `ctx.interrupt` fires).
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError>;
@@ -247,7 +254,9 @@ fn check_memory(planner: &dyn Planner, grid: &PlanningGrid, cap: u64) -> Result<
     // The padded grid A* indexes: (w + 2) x (h + 2).
     let cells = (grid.width() as u64 + 2) * (grid.height() as u64 + 2);
     let per_cell = planner.working_bytes_per_cell();
-    let needed = cells.saturating_mul(per_cell);
+    let needed = cells
+        .saturating_mul(per_cell)
+        .saturating_add(planner.working_bytes_beyond_cells(grid.width(), grid.height()));
     if needed > cap {
         return Err(PlanError::TooLarge {
             planner: planner.name(),

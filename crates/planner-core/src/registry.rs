@@ -432,7 +432,7 @@ mod tests {
                     &mut PlanContext::never_interrupted(&mut r),
                 )
             };
-            let need = padded * per_cell;
+            let need = padded * per_cell + planner.working_bytes_beyond_cells(8, 3);
             match run(need - 1) {
                 Err(PlanError::TooLarge {
                     planner,

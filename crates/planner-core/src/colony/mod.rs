@@ -250,6 +250,18 @@ pub fn eta_force(force: Vector2, dir: Vector2, delta: f64) -> f64 {
 /// How many of an iteration's finished walks [`Judge::Pulled`] straightens.
 const PULLED_PER_ITERATION: usize = 3;
 
+/// Adds a finished walk of cell length `len` to `shortest`, the iteration's
+/// [`PULLED_PER_ITERATION`] shortest so far (shortest first; among equal lengths the earlier
+/// ant first): only those are straightened, so only those are kept (a copy of every arriving
+/// walk held up to 1 000 map-long walks at once).
+fn keep_shortest(shortest: &mut Vec<(Vec<Cell>, f64)>, walk: &[Cell], len: f64) {
+    let at = shortest.partition_point(|w| w.1.total_cmp(&len).is_le());
+    if at < PULLED_PER_ITERATION {
+        shortest.insert(at, (walk.to_vec(), len));
+        shortest.truncate(PULLED_PER_ITERATION);
+    }
+}
+
 /// Eq. 13: the probability of each candidate from its pheromone and heuristic.
 pub fn transition_probabilities(tau: &[f64], eta: &[f64], alpha: f64, beta: f64) -> Vec<f64> {
     let w: Vec<f64> = tau
@@ -315,6 +327,25 @@ impl Planner for ColonyPlanner {
     /// (8 + 4 B), the ants' visit stamps (4 B) and the heuristic's row index (4 B) of every cell.
     fn working_bytes_per_cell(&self) -> u64 {
         crate::planner::ASTAR_BYTES_PER_CELL + 10 + 20
+    }
+
+    /// The walks an iteration keeps, each at most the step budget long: the ant's own buffer
+    /// and, under the pulled judge, the [`PULLED_PER_ITERATION`] shortest (8 B per cell); for
+    /// the baselines' ant system, every arriving walk until the deposit (4 B per cell).
+    fn working_bytes_beyond_cells(&self, width: usize, height: usize) -> u64 {
+        let p = &self.params;
+        let steps = (p.step_budget_factor * (width + height) as f64) as u64 + 1;
+        let kept = 1 + if p.judge == Judge::Pulled {
+            PULLED_PER_ITERATION as u64
+        } else {
+            0
+        };
+        let deposits = if self.variant == ColonyVariant::EapfIaco {
+            0
+        } else {
+            p.ants as u64 * 4
+        };
+        steps.saturating_mul(kept * 8 + deposits)
     }
 
     fn smooth_by_default(&self) -> bool {
@@ -482,17 +513,16 @@ impl<'a> Colony<'a> {
             .map_or(f64::INFINITY, |len| len * self.info.resolution)
     }
 
-    /// Under [`Judge::Pulled`]: the iteration's finished walks (with their cell lengths), of
-    /// which the [`PULLED_PER_ITERATION`] shortest are straightened by the delete operation
+    /// Under [`Judge::Pulled`]: the iteration's [`PULLED_PER_ITERATION`] shortest finished
+    /// walks (with their cell lengths, shortest first: [`keep_shortest`]), straightened by the delete operation
     /// (on cell centres: `solve` also pins the exact ends) and each in turn that is shorter or
     /// smoother than the best answer so far, and worse on neither, becomes the best-so-far.
     /// The convergence value is the answer's length alone, so a gain in turning only does not
     /// hold the patience rule off. Straightening every ant was most of the colony's time on a large
     /// map (each is a line-of-sight pass over the walk); the shortest staircases are the ones
     /// whose straightened paths are shortest.
-    fn judge_pulled(&mut self, mut walks: Vec<(Vec<Cell>, f64)>) {
-        walks.sort_by(|a, b| a.1.total_cmp(&b.1));
-        for (cells, len) in walks.into_iter().take(PULLED_PER_ITERATION) {
+    fn judge_pulled(&mut self, shortest: Vec<(Vec<Cell>, f64)>) {
+        for (cells, len) in shortest {
             if self.best_pulled.offer(self.problem.grid, &cells) {
                 self.best = Some((cells, len));
             }
@@ -630,8 +660,10 @@ impl Population for Colony<'_> {
         let p = &self.planner.params;
         let variant = self.planner.variant;
         let info = self.info;
-        let mut finished: Vec<(Vec<Cell>, f64)> = Vec::new();
-        let mut walks = Vec::new();
+        // The ant system's deposits: every arriving walk, as cell indices (ends, 1 / length).
+        let mut deposit_cells: Vec<u32> = Vec::new();
+        let mut deposit_walks: Vec<(usize, f64)> = Vec::new();
+        let mut shortest = Vec::with_capacity(PULLED_PER_ITERATION + 1);
         for _ in 0..p.ants {
             // The driver polls between iterations; one iteration of many ants on a large map
             // is long enough that a deadline or a cancel should not wait for all of them.
@@ -648,17 +680,18 @@ impl Population for Colony<'_> {
                             self.best = Some((self.walk.clone(), len));
                         }
                     }
-                    Judge::Pulled => walks.push((self.walk.clone(), len)),
+                    Judge::Pulled => keep_shortest(&mut shortest, &self.walk, len),
                 }
                 if variant != ColonyVariant::EapfIaco {
-                    finished.push((self.walk.clone(), len));
+                    deposit_cells.extend(self.walk.iter().map(|c| info.index(*c) as u32));
+                    deposit_walks.push((deposit_cells.len(), 1.0 / len));
                 }
             } else {
                 self.dropped += 1;
             }
         }
         if p.judge == Judge::Pulled {
-            self.judge_pulled(walks);
+            self.judge_pulled(shortest);
             self.local_search(ctx);
         }
         match variant {
@@ -672,8 +705,11 @@ impl Population for Colony<'_> {
             }
             _ => {
                 // The ant system: evaporation, then every finished ant deposits 1 / L_k.
-                let deposits = finished.iter().flat_map(|(cells, len)| {
-                    cells.iter().map(move |c| (info.index(*c), 1.0 / len))
+                let mut from = 0;
+                let deposits = deposit_walks.iter().flat_map(|&(end, amount)| {
+                    let walk = &deposit_cells[from..end];
+                    from = end;
+                    walk.iter().map(move |&i| (i as usize, amount))
                 });
                 self.pheromone.global_update(deposits, 1.0);
             }
@@ -782,6 +818,27 @@ mod tests {
             } else {
                 0.0
             }));
+    }
+
+    proptest::proptest! {
+        /// Kept as they arrive, the shortest walks are those a stable sort of every walk by
+        /// length would put first (ties in arrival order).
+        #[test]
+        fn keep_shortest_keeps_what_sorting_every_walk_would(lengths in proptest::collection::vec(0u8..6, 0..40)) {
+            let walks: Vec<(Vec<Cell>, f64)> = lengths
+                .iter()
+                .enumerate()
+                .map(|(k, &l)| (vec![Cell::new(k as i32, 0)], f64::from(l)))
+                .collect();
+            let mut kept = Vec::new();
+            for (w, len) in &walks {
+                keep_shortest(&mut kept, w, *len);
+            }
+            let mut sorted = walks.clone();
+            sorted.sort_by(|a, b| a.1.total_cmp(&b.1));
+            sorted.truncate(PULLED_PER_ITERATION);
+            proptest::prop_assert_eq!(kept, sorted);
+        }
     }
 
     #[test]
