@@ -356,7 +356,7 @@ impl Population for Nsga2<'_> {
     }
 
     /// The first front's feasible members (duplicates dropped), and eq. 19-21's choice from it.
-    fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+    fn finish(mut self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
         let enc = self.search.enc;
         let mut front: Vec<Member> = Vec::new();
         for m in self
@@ -369,9 +369,27 @@ impl Population for Nsga2<'_> {
             }
         }
         let objectives: Vec<[f64; 3]> = front.iter().map(|m| m.e.objectives()).collect();
-        let chosen = super::pareto::weighted_choice(&objectives, self.search.weights)
-            .map(|k| front[k].x.clone())
-            .unwrap_or_else(|| self.seed.clone());
+        let chosen = match super::pareto::weighted_choice(&objectives, self.search.weights) {
+            Some(k) => {
+                // The same polish as the swarms' (their comparison is of the search alone); a
+                // polished path dominates the choice, and leaves the front every member it
+                // dominates.
+                let (x, e, moved) =
+                    self.search
+                        .polish_choice(front[k].x.clone(), front[k].e, &mut stats);
+                if moved {
+                    front.retain(|m| !dominates(&e, &m.e));
+                    front.push(Member {
+                        x: x.clone(),
+                        e,
+                        rank: 0,
+                        crowding: 0.0,
+                    });
+                }
+                x
+            }
+            None => self.seed.clone(),
+        };
         if chosen == self.seed {
             stats
                 .notes
