@@ -89,8 +89,9 @@ pub trait Population {
     fn evaluations(&self) -> u64;
 
     /// The chosen path (and front), with the family's counters added to `stats`. Called after
-    /// the loop, whatever ended it; `stats.termination` is already set.
-    fn finish(self, stats: PlanStats) -> Result<RawPlan, PlanError>;
+    /// the loop, whatever ended it; `stats.termination` is already set. Work done here (the
+    /// swarms' polish) polls `ctx` like an iteration.
+    fn finish(self, stats: PlanStats, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError>;
 }
 
 /// Runs a population: init, then steps until the budget, the patience or the interrupt ends the
@@ -136,7 +137,7 @@ pub fn drive<P: Population>(
     }
     stats.evaluations = pop.evaluations();
     stats.termination = Some(termination);
-    pop.finish(stats)
+    pop.finish(stats, ctx)
 }
 
 #[cfg(test)]
@@ -162,7 +163,7 @@ mod tests {
         fn evaluations(&self) -> u64 {
             self.evaluations
         }
-        fn finish(self, stats: PlanStats) -> Result<RawPlan, PlanError> {
+        fn finish(self, stats: PlanStats, _: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
             Ok(RawPlan {
                 stats,
                 ..RawPlan::default()

@@ -721,7 +721,7 @@ impl Population for Colony<'_> {
         self.ants_run
     }
 
-    fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+    fn finish(self, mut stats: PlanStats, _: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
         stats
             .counters
             .insert("dropped_ants".into(), self.dropped as f64);

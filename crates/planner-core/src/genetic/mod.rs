@@ -786,7 +786,7 @@ impl Population for Generations<'_> {
         self.evaluations
     }
 
-    fn finish(self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+    fn finish(self, mut stats: PlanStats, _: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
         let with_cost = self.planner.params.weight_cost > 0.0;
         // The fittest path's terms; the answer is the fittest too unless the pulled judge chose.
         let terms = fitness_terms(self.problem.grid, &self.best.1, with_cost);

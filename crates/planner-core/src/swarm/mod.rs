@@ -609,7 +609,11 @@ impl Population for Swarm<'_> {
 
     /// Eq. 19-21's choice from the archive (multi-objective variants) or the best so far, with
     /// the front.
-    fn finish(mut self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+    fn finish(
+        mut self,
+        mut stats: PlanStats,
+        ctx: &mut PlanContext<'_>,
+    ) -> Result<RawPlan, PlanError> {
         let enc = self.search.enc;
         let multi = self.search.variant.multi_objective();
         let chosen = if multi {
@@ -619,7 +623,7 @@ impl Population for Swarm<'_> {
         };
         let best = match chosen {
             Some((x, e)) => {
-                let (x, e, moved) = self.search.polish_choice(x, e, &mut stats);
+                let (x, e, moved) = self.search.polish_choice(x, e, &mut stats, ctx);
                 if multi && moved {
                     self.archive.offer(&x, e);
                 }
@@ -762,29 +766,44 @@ impl<'a> Search<'a> {
         x: Vec<f64>,
         e: Eval,
         stats: &mut PlanStats,
+        ctx: &mut PlanContext<'_>,
     ) -> (Vec<f64>, Eval, bool) {
         if self.p.polish == 0 || stats.cut_short || !e.feasible() {
             return (x, e, false);
         }
         let before = self.evaluations;
-        let (x, e, moves) = self.polish(x, e);
+        let (x, e, moves, interrupted) = self.polish(x, e, ctx);
         let counters = &mut stats.counters;
         counters.insert(
             "polish_evaluations".into(),
             (self.evaluations - before) as f64,
         );
         counters.insert("polish_moves".into(), moves as f64);
+        if interrupted {
+            stats
+                .notes
+                .push("the deadline came during the polish: the path is polished in part".into());
+        }
         (x, e, moves > 0)
     }
 
-    /// [`SwarmParams::polish`]: a pattern search from `x` (evaluation `e`). Returns the path
-    /// it ends on, its evaluation and how many moves were kept.
-    fn polish(&mut self, mut x: Vec<f64>, mut e: Eval) -> (Vec<f64>, Eval, u64) {
+    /// [`SwarmParams::polish`]: a pattern search from `x` (evaluation `e`), polling the
+    /// deadline before each evaluation. Returns the path it ends on, its evaluation, how many
+    /// moves were kept and whether the deadline stopped it.
+    fn polish(
+        &mut self,
+        mut x: Vec<f64>,
+        mut e: Eval,
+        ctx: &mut PlanContext<'_>,
+    ) -> (Vec<f64>, Eval, u64, bool) {
         let mut moves = 0;
         let mut share = 0.02;
         for _ in 0..self.p.polish {
             for j in 0..x.len() {
                 for sign in [1.0, -1.0] {
+                    if ctx.check().is_err() {
+                        return (x, e, moves, true);
+                    }
                     let mut y = x.clone();
                     y[j] += sign * share * self.range[j];
                     self.clamp(&mut y);
@@ -801,7 +820,7 @@ impl<'a> Search<'a> {
             }
             share *= 0.5;
         }
-        (x, e, moves)
+        (x, e, moves, false)
     }
 
     /// The single-objective fitness: the weighted sum scaled by the seed's values (the safety
@@ -1042,6 +1061,53 @@ mod tests {
             }
             assert!(strictly >= 5, "{name}: {strictly} of 8 polished");
         }
+    }
+
+    /// A deadline during the polish ends it at once: the answer is the path polished so far,
+    /// and the notes say so.
+    #[test]
+    fn the_polish_stops_at_the_deadline() {
+        use crate::config::PlannerConfig;
+        use crate::planner::{solve, Interrupt, PlanContext, SolveOptions};
+        use crate::registry::PlannerName;
+        use crate::test_support::rng;
+        use std::cell::Cell;
+        let (grid, q) = pillar_room();
+        let planner = crate::registry::build(&PlannerConfig {
+            planner: PlannerName::Mocmcso,
+            ..PlannerConfig::default()
+        })
+        .unwrap();
+        let run = |fire_at: u64| {
+            let polls = Cell::new(0u64);
+            let interrupt = || {
+                polls.set(polls.get() + 1);
+                (polls.get() >= fire_at).then_some(Interrupt::Deadline)
+            };
+            let mut r = rng(3);
+            let mut ctx = PlanContext::new(&mut r, &interrupt);
+            let plan = solve(
+                planner.as_ref(),
+                &grid,
+                &q,
+                SolveOptions::default(),
+                &mut ctx,
+            );
+            (plan.unwrap(), polls.get())
+        };
+        let (whole, polls) = run(u64::MAX);
+        let polished = whole.stats.counters["polish_evaluations"];
+        assert!(polished > 10.0, "{polished}");
+        // Fire half-way through the polish (its polls are the last ones).
+        let (part, after) = run(polls - polished as u64 / 2);
+        assert!(!part.stats.cut_short && part.metrics.collision_free);
+        assert!(part.stats.counters["polish_evaluations"] < polished);
+        assert!(part
+            .stats
+            .notes
+            .iter()
+            .any(|n| n.contains("polished in part")));
+        assert!(after <= polls - polished as u64 / 2 + 1, "{after} polls");
     }
 
     /// Safety moves the choice the right way as its weight moves: in a room with a pillar, the

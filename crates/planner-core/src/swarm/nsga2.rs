@@ -356,7 +356,11 @@ impl Population for Nsga2<'_> {
     }
 
     /// The first front's feasible members (duplicates dropped), and eq. 19-21's choice from it.
-    fn finish(mut self, mut stats: PlanStats) -> Result<RawPlan, PlanError> {
+    fn finish(
+        mut self,
+        mut stats: PlanStats,
+        ctx: &mut PlanContext<'_>,
+    ) -> Result<RawPlan, PlanError> {
         let enc = self.search.enc;
         let mut front: Vec<Member> = Vec::new();
         for m in self
@@ -376,7 +380,7 @@ impl Population for Nsga2<'_> {
                 // dominates.
                 let (x, e, moved) =
                     self.search
-                        .polish_choice(front[k].x.clone(), front[k].e, &mut stats);
+                        .polish_choice(front[k].x.clone(), front[k].e, &mut stats, ctx);
                 if moved {
                     front.retain(|m| !dominates(&e, &m.e));
                     front.push(Member {
