@@ -60,6 +60,10 @@ pub struct BenchArgs {
 pub struct Row {
     pub map: String,
     pub scenario: String,
+    /// The query's start and goal (map metres): `patrol-plan plan --start X,Y --goal X,Y`
+    /// replays any row, a drawn (`--random`) one included.
+    pub start: [f64; 2],
+    pub goal: [f64; 2],
     pub planner: PlannerName,
     pub runs: u64,
     pub successes: u64,
@@ -307,6 +311,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 rows.push(Row {
                     map: map_name.clone(),
                     scenario: sc.name.clone(),
+                    start: sc.start,
+                    goal: sc.goal,
                     planner: *planner,
                     runs: args.runs,
                     successes: ok,

@@ -206,6 +206,29 @@ fn bench_writes_rows_and_markdown() {
                 >= r["reference_length_m"].as_f64().unwrap() - 1e-6
         );
     }
+    // Each row names its query: `plan` with that start and goal replays it.
+    let row = rows
+        .iter()
+        .find(|r| r["scenario"] == "lower_right_to_upper_left" && r["planner"] == "astar")
+        .unwrap();
+    assert_eq!(row["start"], serde_json::json!([19.5, 0.5]));
+    assert_eq!(row["goal"], serde_json::json!([0.5, 19.5]));
+    let xy = |v: &serde_json::Value| format!("{},{}", v[0], v[1]);
+    let map = shared("bench/substation_20_complex.yaml");
+    let (ok, stdout, stderr) = patrol_plan(&[
+        "plan",
+        "--map",
+        map.to_str().unwrap(),
+        "--start",
+        &xy(&row["start"]),
+        "--goal",
+        &xy(&row["goal"]),
+        "--planner",
+        "astar",
+    ]);
+    assert!(ok, "{stderr}");
+    let replay: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(replay["length_m"], row["length_m_best"]);
     let table = std::fs::read_to_string(&md).unwrap();
     assert!(
         table.contains("| substation_20_complex | lower_right_to_upper_left | any_angle |"),
