@@ -329,13 +329,14 @@ impl Planner for ColonyPlanner {
         crate::planner::ASTAR_BYTES_PER_CELL + 10 + 20
     }
 
-    /// The walks an iteration keeps, each at most the step budget long: the ant's own buffer
-    /// and, under the pulled judge, the [`PULLED_PER_ITERATION`] shortest (8 B per cell); for
-    /// the baselines' ant system, every arriving walk until the deposit (4 B per cell).
+    /// The walks an iteration keeps, each at most the step budget long: the ant's own buffer,
+    /// the best walk and, under the pulled judge, the [`PULLED_PER_ITERATION`] shortest (8 B per
+    /// cell); for the baselines' ant system, every arriving walk until the deposit (4 B per
+    /// cell).
     fn working_bytes_beyond_cells(&self, width: usize, height: usize) -> u64 {
         let p = &self.params;
         let steps = (p.step_budget_factor * (width + height) as f64) as u64 + 1;
-        let kept = 1 + if p.judge == Judge::Pulled {
+        let kept = 2 + if p.judge == Judge::Pulled {
             PULLED_PER_ITERATION as u64
         } else {
             0
