@@ -407,9 +407,12 @@ impl PlanningGrid {
                         .map(|_| AtomicU8::new(NOT_YET))
                         .collect()
                 }),
-                // A free cell's clearance is above the free radius, so at or above the
-                // inscribed radius its model cost is at most 252; other cells get 253 or 254.
-                free_by_cost: self.costs.inscribed_radius <= self.inflation_radius,
+                // A free cell's clearance is above the free radius, so above the inscribed
+                // radius: its model cost is at most 252; other cells get 253 or 254. (An
+                // infinite inscribed radius would make the free cells far from any obstacle
+                // inscribed too.)
+                free_by_cost: self.costs.inscribed_radius <= self.inflation_radius
+                    && self.costs.inscribed_radius.is_finite(),
             },
         };
         CellReader { grid: self, table }

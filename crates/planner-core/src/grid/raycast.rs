@@ -87,9 +87,12 @@ const BOX_CELLS: f64 = 8.0;
 /// [`supercover`] then decides. The delete operation tests long segments across open space
 /// over and over; cell by cell, that was a quarter of `imga`'s time on a large map.
 fn boxes_free(grid: &PlanningGrid, a: Point2, b: Point2) -> bool {
+    // Only segments with both ends in the map (so every piece's cell coordinates are small and
+    // finite: no overflow, a bounded number of pieces), and long ones: short segments are no
+    // faster with boxes.
+    let inside = |p: Point2| grid.info().contains(Cell::containing(p)) && p.x >= 0.0 && p.y >= 0.0;
     let span = (b.x - a.x).abs().max((b.y - a.y).abs());
-    // Short segments (and non-finite ones) go cell by cell: no faster with boxes.
-    if !span.is_finite() || span < 2.0 * BOX_CELLS {
+    if !(inside(a) && inside(b)) || span < 2.0 * BOX_CELLS {
         return false;
     }
     let pieces = (span / BOX_CELLS).ceil() as usize;
@@ -214,6 +217,12 @@ mod tests {
         );
     }
 
+    /// A segment end's coordinate on a 60-cell map: anywhere, on a cell border, or a little
+    /// outside the map.
+    fn coordinate() -> impl Strategy<Value = f64> {
+        prop_oneof![0.0f64..60.0, (0i32..=60).prop_map(f64::from), -3.0f64..63.0,]
+    }
+
     /// A 60 x 60 grid of scattered one-cell obstacles (no inflation).
     fn scattered(seed: u64, density: f64) -> PlanningGrid {
         crate::test_support::random_grid(seed, 60, 60, density).0
@@ -254,6 +263,17 @@ mod tests {
         );
         let across = crate::test_support::grid_with((60, 20), 1.0, 0.0, |x, y| x == 30 && y == 10);
         assert!(!line_of_sight(&across, a, b));
+        // Ends outside the map, far outside (past i32) or not numbers: never cleared by boxes.
+        for (a, b) in [
+            (Point2::new(3e9, 5.5), Point2::new(3e9, 30.5)),
+            (Point2::new(5.5, 5.5), Point2::new(1e20, 5.5)),
+            (Point2::new(-20.5, 5.5), Point2::new(20.5, 5.5)),
+            (Point2::new(5.5, f64::NAN), Point2::new(40.5, 5.5)),
+            (Point2::new(5.5, 5.5), Point2::new(f64::INFINITY, 5.5)),
+        ] {
+            assert!(!boxes_free(&open, a, b), "{a:?} {b:?}");
+            assert!(!line_of_sight(&open, a, b), "{a:?} {b:?}");
+        }
         // On a sparse map it clears many long segments (else it would buy nothing).
         let sparse = scattered(5, 0.002);
         let mut r = crate::test_support::rng(6);
@@ -276,7 +296,7 @@ mod tests {
         #[test]
         fn the_box_test_never_clears_a_blocked_segment(
             seed in any::<u64>(), density in 0.0f64..0.02,
-            ax in 0.0f64..60.0, ay in 0.0f64..60.0, bx in 0.0f64..60.0, by in 0.0f64..60.0,
+            ax in coordinate(), ay in coordinate(), bx in coordinate(), by in coordinate(),
         ) {
             let grid = scattered(seed, density);
             let (a, b) = (Point2::new(ax, ay), Point2::new(bx, by));
