@@ -700,6 +700,8 @@ impl Population for Generations<'_> {
         }
         self.scored = pop.paths.into_iter().map(|c| (self.score(&c), c)).collect();
         self.scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // The initial population's fitness evaluations count, as the swarms' do.
+        self.evaluations += self.scored.len() as u64;
         self.best = self.scored[0].clone();
         if self.planner.pulled_judge() {
             // The seed is the answer to beat; without one, the fittest initial path.
@@ -1040,7 +1042,9 @@ mod tests {
         let run = |mutation| {
             let plan = solve_seeded(&imga_mutating_by(mutation), &grid, &q, 1).unwrap();
             assert!(plan.metrics.collision_free);
-            let per_generation = plan.stats.evaluations as f64 / plan.stats.iterations as f64;
+            // The initial population counts as a generation.
+            let per_generation =
+                plan.stats.evaluations as f64 / (plan.stats.iterations + 1) as f64;
             let variants = plan.stats.counters.get("seed_variants").copied();
             (per_generation, variants)
         };
