@@ -329,22 +329,24 @@ impl Planner for ColonyPlanner {
         crate::planner::ASTAR_BYTES_PER_CELL + 10 + 20
     }
 
-    /// The walks an iteration keeps, each at most the step budget long: the ant's own buffer,
-    /// the best walk and, under the pulled judge, the [`PULLED_PER_ITERATION`] shortest (8 B per
-    /// cell); for the baselines' ant system, every arriving walk until the deposit (4 B per
-    /// cell).
+    /// The walks an iteration keeps, each at most the step budget long (8 B per cell): the
+    /// ant's own buffer, the best walk and a rerouted copy of it, and, under the pulled judge,
+    /// the [`PULLED_PER_ITERATION`] shortest (one more while a walk is inserted); for the
+    /// baselines' ant system, every arriving walk until the deposit (4 B per cell, twice for
+    /// the buffer's growth). The seed's path (A*'s or the field's), which may be longer, is not
+    /// counted: it is the one path every seeded planner holds.
     fn working_bytes_beyond_cells(&self, width: usize, height: usize) -> u64 {
         let p = &self.params;
         let steps = (p.step_budget_factor * (width + height) as f64) as u64 + 1;
-        let kept = 2 + if p.judge == Judge::Pulled {
-            PULLED_PER_ITERATION as u64
+        let kept = 3 + if p.judge == Judge::Pulled {
+            PULLED_PER_ITERATION as u64 + 1
         } else {
             0
         };
         let deposits = if self.variant == ColonyVariant::EapfIaco {
             0
         } else {
-            p.ants as u64 * 4
+            p.ants as u64 * 8
         };
         steps.saturating_mul(kept * 8 + deposits)
     }
@@ -440,7 +442,7 @@ impl<'a> Colony<'a> {
             stamp: 0,
             dropped: 0,
             ants_run: 0,
-            walk: Vec::with_capacity(steps),
+            walk: Vec::with_capacity(steps + 1),
             candidates: Vec::with_capacity(8),
         }
     }
