@@ -33,7 +33,7 @@ pub mod encoding;
 pub mod nsga2;
 pub mod pareto;
 
-use crate::driver::{drive, Budget, Population};
+use crate::driver::{drive, Budget, Population, Termination};
 use crate::field::ApfParams;
 use crate::geometry::Point2;
 use crate::grid::inflation::PlanningGrid;
@@ -41,7 +41,9 @@ use crate::grid::metrics::{path_length, total_turning};
 use crate::grid::raycast::{blocked_and_cost_length, blocked_length, path_is_free};
 use crate::grid::smoothing::{delete_redundant, delete_redundant_weighted};
 use crate::params::{check, check_counts, ParamError, Range};
-use crate::planner::{ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::planner::{
+    Interrupt, ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan,
+};
 use crate::registry::PlannerName;
 use crate::search::astar::astar_cells_cost_aware;
 use crate::seed::field_or_astar;
@@ -772,37 +774,43 @@ impl<'a> Search<'a> {
             return (x, e, false);
         }
         let before = self.evaluations;
-        let (x, e, moves, interrupted) = self.polish(x, e, ctx);
+        let (x, e, moves, interrupt) = self.polish(x, e, ctx);
+        let polished = self.evaluations - before;
+        // The polish's evaluations are the plan's too (the driver counted the loop's).
+        stats.evaluations += polished;
         let counters = &mut stats.counters;
-        counters.insert(
-            "polish_evaluations".into(),
-            (self.evaluations - before) as f64,
-        );
+        counters.insert("polish_evaluations".into(), polished as f64);
         counters.insert("polish_moves".into(), moves as f64);
-        if interrupted {
-            stats
+        match interrupt {
+            None => {}
+            Some(Interrupt::Deadline) => stats
                 .notes
-                .push("the deadline came during the polish: the path is polished in part".into());
+                .push("the deadline came during the polish: the path is polished in part".into()),
+            // As a cancel during the loop ends it: the plan says it was cancelled.
+            Some(Interrupt::Cancelled) => {
+                stats.cut_short = true;
+                stats.termination = Some(Termination::Interrupted(Interrupt::Cancelled));
+            }
         }
         (x, e, moves > 0)
     }
 
-    /// [`SwarmParams::polish`]: a pattern search from `x` (evaluation `e`), polling the
-    /// deadline before each evaluation. Returns the path it ends on, its evaluation, how many
-    /// moves were kept and whether the deadline stopped it.
+    /// [`SwarmParams::polish`]: a pattern search from `x` (evaluation `e`), asking for the
+    /// interrupt before each move. Returns the path it ends on, its evaluation, how many moves
+    /// were kept and the interrupt that stopped it, if one did.
     fn polish(
         &mut self,
         mut x: Vec<f64>,
         mut e: Eval,
         ctx: &mut PlanContext<'_>,
-    ) -> (Vec<f64>, Eval, u64, bool) {
+    ) -> (Vec<f64>, Eval, u64, Option<Interrupt>) {
         let mut moves = 0;
         let mut share = 0.02;
         for _ in 0..self.p.polish {
             for j in 0..x.len() {
                 for sign in [1.0, -1.0] {
-                    if ctx.check().is_err() {
-                        return (x, e, moves, true);
+                    if let Some(interrupt) = (ctx.interrupt)() {
+                        return (x, e, moves, Some(interrupt));
                     }
                     let mut y = x.clone();
                     y[j] += sign * share * self.range[j];
@@ -820,7 +828,7 @@ impl<'a> Search<'a> {
             }
             share *= 0.5;
         }
-        (x, e, moves, false)
+        (x, e, moves, None)
     }
 
     /// The single-objective fitness: the weighted sum scaled by the seed's values (the safety
@@ -1068,7 +1076,7 @@ mod tests {
     #[test]
     fn the_polish_stops_at_the_deadline() {
         use crate::config::PlannerConfig;
-        use crate::planner::{solve, Interrupt, PlanContext, SolveOptions};
+        use crate::planner::{solve, PlanContext, SolveOptions};
         use crate::registry::PlannerName;
         use crate::test_support::rng;
         use std::cell::Cell;
@@ -1078,11 +1086,11 @@ mod tests {
             ..PlannerConfig::default()
         })
         .unwrap();
-        let run = |fire_at: u64| {
+        let run_with = |fire_at: u64, what: Interrupt| {
             let polls = Cell::new(0u64);
             let interrupt = || {
                 polls.set(polls.get() + 1);
-                (polls.get() >= fire_at).then_some(Interrupt::Deadline)
+                (polls.get() >= fire_at).then_some(what)
             };
             let mut r = rng(3);
             let mut ctx = PlanContext::new(&mut r, &interrupt);
@@ -1095,6 +1103,7 @@ mod tests {
             );
             (plan.unwrap(), polls.get())
         };
+        let run = |fire_at| run_with(fire_at, Interrupt::Deadline);
         let (whole, polls) = run(u64::MAX);
         let polished = whole.stats.counters["polish_evaluations"];
         assert!(polished > 10.0, "{polished}");
@@ -1108,6 +1117,15 @@ mod tests {
             .iter()
             .any(|n| n.contains("polished in part")));
         assert!(after <= polls - polished as u64 / 2 + 1, "{after} polls");
+        // The polish's evaluations are the plan's too.
+        assert!(whole.stats.evaluations as f64 > polished);
+        // A cancel there ends the plan as cancelled, as one during the loop does.
+        let (cancelled, _) = run_with(polls - polished as u64 / 2, Interrupt::Cancelled);
+        assert!(cancelled.stats.cut_short);
+        assert_eq!(
+            cancelled.stats.termination,
+            Some(Termination::Interrupted(Interrupt::Cancelled))
+        );
     }
 
     /// Safety moves the choice the right way as its weight moves: in a room with a pillar, the
