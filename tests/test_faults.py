@@ -487,7 +487,7 @@ def burst(f, client):
 
 def nav2_get_path(f, start, goal, planner_id=""):
     ros = f.ros
-    ros.spin_until(f.action.server_is_ready, 20, "compute_path_to_pose")
+    ros.spin_until(f.action.server_is_ready, 45, "compute_path_to_pose")
     g = ComputePathToPose.Goal()
     g.start, g.goal, g.use_start, g.planner_id = start, goal, True, planner_id
     t0 = time.monotonic()

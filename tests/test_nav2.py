@@ -33,7 +33,7 @@ class Nav2Client:
     def send(self, client, goal, cancel_after=None, timeout=30):
         """Sends a goal the way nav2_simple_commander does; returns (status, result)."""
         ros = self.ros
-        ros.spin_until(lambda: client.server_is_ready(), 20, "the action server")
+        ros.spin_until(lambda: client.server_is_ready(), 45, "the action server")
         accepted = client.send_goal_async(goal)
         handle = ros.spin_until(lambda: accepted.done() and accepted.result(), 20, "the goal's acceptance")
         assert handle.accepted, "the goal was rejected"

@@ -74,7 +74,7 @@ def test_the_bundled_patrol_twice_in_the_best_order_on_time_with_the_missed_poin
         ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
         ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
-        ros.spin_until(lambda: client.server_is_ready(), 20, "the follow_waypoints action")
+        ros.spin_until(lambda: client.server_is_ready(), 45, "the follow_waypoints action")
         goal = FollowWaypoints.Goal()
         goal.number_of_loops = 1
         goal.poses = [stamped(x, y, yaw) for x, y, yaw in WAYPOINTS]
