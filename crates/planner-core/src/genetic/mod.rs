@@ -1043,8 +1043,7 @@ mod tests {
             let plan = solve_seeded(&imga_mutating_by(mutation), &grid, &q, 1).unwrap();
             assert!(plan.metrics.collision_free);
             // The initial population counts as a generation.
-            let per_generation =
-                plan.stats.evaluations as f64 / (plan.stats.iterations + 1) as f64;
+            let per_generation = plan.stats.evaluations as f64 / (plan.stats.iterations + 1) as f64;
             let variants = plan.stats.counters.get("seed_variants").copied();
             (per_generation, variants)
         };
