@@ -347,8 +347,12 @@ impl PlanningGrid {
     #[inline]
     pub fn is_free(&self, c: Cell) -> bool {
         // Shifted by the border, a cell inside the map has 1 <= x + 1 <= width; one unsigned
-        // comparison per axis rejects both sides (a negative wraps to a huge value).
-        let (px, py) = ((c.x + 1) as u32 as usize, (c.y + 1) as u32 as usize);
+        // comparison per axis rejects both sides (a negative wraps to a huge value, and so does
+        // i32::MAX + 1, the cell of any point beyond i32's range).
+        let (px, py) = (
+            c.x.wrapping_add(1) as u32 as usize,
+            c.y.wrapping_add(1) as u32 as usize,
+        );
         let stride = self.width() + 2;
         px.wrapping_sub(1) < self.width()
             && py.wrapping_sub(1) < self.height()
