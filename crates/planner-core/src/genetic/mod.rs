@@ -114,6 +114,14 @@ pub struct GaParams {
     /// filled with rerouted copies of the seed (counter `seed_variants`): on warehouse maps
     /// median insertion seldom completes a random path, and the seed alone was the population.
     pub mutation: GaMutation,
+    /// Beyond the paper: each generation, this many reroutes (the `reroute` mutation) of IMGA's
+    /// answer, each kept when it straightens into a better answer (under `judge: pulled`
+    /// only), as the colonies' `local_search` does for their best ant. The population breeds
+    /// from fitness, which weighs safety and the staircase's turns, so the answer's own
+    /// neighbourhood was searched only when a mutation happened to land on it. Default 1 (2
+    /// found a little more at 1.2 x imga's time on the 2000 x 2000 map, past the 5 x A* bar);
+    /// 0 is the paper (config/paper.yaml).
+    pub local_search: usize,
 }
 
 /// See [`GaParams::mutation`].
@@ -154,6 +162,7 @@ impl Default for GaParams {
             insertion_budget_factor: 4.0,
             judge: GaJudge::Pulled,
             mutation: GaMutation::Reroute,
+            local_search: 1,
         }
     }
 }
@@ -169,6 +178,7 @@ impl GaParams {
             ],
         )?;
         check_counts(1..=100, &[("genetic.init_attempts", self.init_attempts)])?;
+        check_counts(0..=100, &[("genetic.local_search", self.local_search)])?;
         // Multiples of the map's size (the corridor of initial paths, the insertions allowed).
         check(
             Range::Within(0.0, 100.0),
@@ -588,6 +598,26 @@ impl Generations<'_> {
     }
 }
 
+impl Generations<'_> {
+    /// [`GaParams::local_search`]: reroutes of the answer, each offered as the answer in turn.
+    fn local_search(&mut self, ctx: &mut PlanContext<'_>) {
+        let grid = self.problem.grid;
+        for _ in 0..self.planner.params.local_search {
+            if ctx.check().is_err() {
+                return;
+            }
+            let Some((answer, measure)) = self.answer.as_mut() else {
+                return;
+            };
+            if let Some(moved) = reroute(grid, answer, self.insertion_budget, ctx.rng) {
+                if measure.offer(grid, &moved) {
+                    *answer = moved;
+                }
+            }
+        }
+    }
+}
+
 impl Population for Generations<'_> {
     /// 4.1: the initial population, sorted by fitness.
     fn init(&mut self, ctx: &mut PlanContext<'_>, stats: &mut PlanStats) -> Result<f64, PlanError> {
@@ -780,6 +810,7 @@ impl Population for Generations<'_> {
         }
         if self.planner.pulled_judge() {
             self.judge_pulled();
+            self.local_search(ctx);
         }
         self.best.0
     }
@@ -987,15 +1018,52 @@ mod tests {
     }
 
     /// IMGA with the default parameters but its mutation.
+    /// IMGA with `mutation` and no local search on the answer (what the mutation alone does).
     fn imga_mutating_by(mutation: GaMutation) -> GaPlanner {
         GaPlanner {
             variant: GaVariant::Imga,
             params: GaParams {
                 mutation,
+                local_search: 0,
                 ..Default::default()
             },
             apf: crate::field::ApfParams::default(),
         }
+    }
+
+    /// The local search on the answer shortens it: in the 0.05 m room, over 8 seeds, IMGA's
+    /// answers with 3 reroutes of the answer per generation are shorter in all than without,
+    /// and shorter on at least half of the seeds, never longer.
+    #[test]
+    fn the_local_search_shortens_the_answer() {
+        use crate::test_support::{solve_seeded, split_room_fine};
+        let (grid, q) = split_room_fine();
+        let lengths = |local_search| -> Vec<f64> {
+            let planner = GaPlanner {
+                params: GaParams {
+                    local_search,
+                    ..Default::default()
+                },
+                ..imga_mutating_by(GaMutation::Reroute)
+            };
+            (1..=8)
+                .map(|seed| {
+                    let plan = solve_seeded(&planner, &grid, &q, seed).unwrap();
+                    assert!(plan.metrics.collision_free);
+                    plan.metrics.length_m
+                })
+                .collect()
+        };
+        let (without, with) = (lengths(0), lengths(3));
+        let shorter = with
+            .iter()
+            .zip(&without)
+            .filter(|&(w, o)| *w < *o - 1e-9)
+            .count();
+        assert!(
+            with.iter().sum::<f64>() < without.iter().sum::<f64>() && shorter >= 4,
+            "{without:?} -> {with:?}"
+        );
     }
 
     /// In a hall of pillars, judged by the path it straightens into, the seeded IMGA returns an
