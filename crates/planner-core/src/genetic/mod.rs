@@ -596,9 +596,7 @@ impl Generations<'_> {
             }
         }
     }
-}
 
-impl Generations<'_> {
     /// [`GaParams::local_search`]: reroutes of the answer, each offered as the answer in turn.
     fn local_search(&mut self, ctx: &mut PlanContext<'_>) {
         let grid = self.problem.grid;
@@ -1017,7 +1015,6 @@ mod tests {
         }
     }
 
-    /// IMGA with the default parameters but its mutation.
     /// IMGA with `mutation` and no local search on the answer (what the mutation alone does).
     fn imga_mutating_by(mutation: GaMutation) -> GaPlanner {
         GaPlanner {
@@ -1033,7 +1030,7 @@ mod tests {
 
     /// The local search on the answer shortens it: in the 0.05 m room, over 8 seeds, IMGA's
     /// answers with 3 reroutes of the answer per generation are shorter in all than without,
-    /// and shorter on at least half of the seeds, never longer.
+    /// and shorter on at least half of the seeds.
     #[test]
     fn the_local_search_shortens_the_answer() {
         use crate::test_support::{solve_seeded, split_room_fine};
