@@ -219,36 +219,26 @@ mod tests {
     /// population no longer holds the plan for a whole start or iteration.
     #[test]
     fn a_deadline_stops_every_planner_at_once() {
-        use crate::planner::{solve, Interrupt, PlanContext, PlanError, SolveOptions};
-        use crate::test_support::{hall, rng};
-        use std::cell::Cell;
+        use crate::planner::{Interrupt, PlanError};
+        use crate::test_support::{hall, solve_interrupted};
         let (grid, q) = hall(true);
+        let deadline_at = |config: &PlannerConfig, fire_at| {
+            let planner = build(config).unwrap();
+            solve_interrupted(planner.as_ref(), &grid, &q, 1, fire_at, Interrupt::Deadline)
+        };
         for name in PlannerName::ALL {
             let config = PlannerConfig {
                 planner: name,
                 ..PlannerConfig::default()
             };
-            let planner = build(&config).unwrap();
-            for fire_at in [1u32, 5, 40] {
-                let polls = Cell::new(0u32);
-                let interrupt = || {
-                    polls.set(polls.get() + 1);
-                    (polls.get() >= fire_at).then_some(Interrupt::Deadline)
-                };
-                let mut r = rng(1);
-                let mut ctx = PlanContext::new(&mut r, &interrupt);
-                match solve(
-                    planner.as_ref(),
-                    &grid,
-                    &q,
-                    SolveOptions::default(),
-                    &mut ctx,
-                ) {
+            for fire_at in [1u64, 5, 40] {
+                let (plan, polls) = deadline_at(&config, fire_at);
+                match plan {
                     Ok(plan) => assert!(plan.metrics.collision_free, "{name:?}"),
                     Err(PlanError::TimedOut) => {}
                     Err(e) => panic!("{name:?} at poll {fire_at}: {e}"),
                 }
-                let after = polls.get().saturating_sub(fire_at);
+                let after = polls.saturating_sub(fire_at);
                 assert!(
                     after <= 3,
                     "{name:?}: {after} polls after the deadline at {fire_at}"
@@ -262,18 +252,9 @@ mod tests {
             };
             config.swarm.population = 2_000;
             config.nsga2.population = 2_000;
-            let planner = build(&config).unwrap();
-            let interrupt = || Some(Interrupt::Deadline);
-            let mut r = rng(1);
-            let mut ctx = PlanContext::new(&mut r, &interrupt);
-            let plan = solve(
-                planner.as_ref(),
-                &grid,
-                &q,
-                SolveOptions::default(),
-                &mut ctx,
-            )
-            .unwrap_or_else(|e| panic!("{name:?}: {e}"));
+            let plan = deadline_at(&config, 1)
+                .0
+                .unwrap_or_else(|e| panic!("{name:?}: {e}"));
             assert!(
                 plan.stats.cut_short && plan.metrics.collision_free,
                 "{name:?}"
@@ -294,25 +275,11 @@ mod tests {
             };
             config.genetic.population = 3_000;
             config.genetic.init_attempts = 100;
-            let planner = build(&config).unwrap();
-            let polls = Cell::new(0u32);
-            let interrupt = || {
-                polls.set(polls.get() + 1);
-                Some(Interrupt::Deadline)
-            };
-            let mut r = rng(1);
-            let mut ctx = PlanContext::new(&mut r, &interrupt);
-            let plan = solve(
-                planner.as_ref(),
-                &grid,
-                &q,
-                SolveOptions::default(),
-                &mut ctx,
-            )
-            .unwrap_or_else(|e| panic!("{name:?}: {e}"));
+            let (plan, polls) = deadline_at(&config, 1);
+            let plan = plan.unwrap_or_else(|e| panic!("{name:?}: {e}"));
             assert!(plan.stats.cut_short && plan.metrics.collision_free);
             assert_eq!(plan.stats.evaluations, 1, "{name:?}: the seed only");
-            assert!(polls.get() <= 4, "{name:?}: {} polls", polls.get());
+            assert!(polls <= 4, "{name:?}: {polls} polls");
         }
     }
 

@@ -55,6 +55,30 @@ pub fn random_grid(seed: u64, w: usize, h: usize, density: f64) -> (PlanningGrid
 }
 
 /// `planner`'s plan for `query` on `grid` with the default options, its random choices from
+/// `seed`, with the interrupt `what` answered from its `fire_at`-th poll on (1: at once,
+/// `u64::MAX`: never); with how many times it was polled. What the deadline and cancel tests
+/// ask.
+pub fn solve_interrupted(
+    planner: &dyn crate::planner::Planner,
+    grid: &PlanningGrid,
+    query: &crate::planner::Query,
+    seed: u64,
+    fire_at: u64,
+    what: crate::planner::Interrupt,
+) -> (Result<crate::planner::Plan, crate::planner::PlanError>, u64) {
+    use crate::planner::{solve, PlanContext, SolveOptions};
+    let polls = std::cell::Cell::new(0u64);
+    let interrupt = || {
+        polls.set(polls.get() + 1);
+        (polls.get() >= fire_at).then_some(what)
+    };
+    let mut r = rng(seed);
+    let mut ctx = PlanContext::new(&mut r, &interrupt);
+    let plan = solve(planner, grid, query, SolveOptions::default(), &mut ctx);
+    (plan, polls.get())
+}
+
+/// `planner`'s plan for `query` on `grid` with the default options, its random choices from
 /// `seed`, never interrupted: what most planner tests ask.
 pub fn solve_seeded(
     planner: &dyn crate::planner::Planner,

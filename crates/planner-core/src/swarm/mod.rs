@@ -1076,10 +1076,8 @@ mod tests {
     #[test]
     fn the_polish_stops_at_the_deadline() {
         use crate::config::PlannerConfig;
-        use crate::planner::{solve, PlanContext, SolveOptions};
         use crate::registry::PlannerName;
-        use crate::test_support::rng;
-        use std::cell::Cell;
+        use crate::test_support::solve_interrupted;
         let (grid, q) = pillar_room();
         let planner = crate::registry::build(&PlannerConfig {
             planner: PlannerName::Mocmcso,
@@ -1087,21 +1085,8 @@ mod tests {
         })
         .unwrap();
         let run_with = |fire_at: u64, what: Interrupt| {
-            let polls = Cell::new(0u64);
-            let interrupt = || {
-                polls.set(polls.get() + 1);
-                (polls.get() >= fire_at).then_some(what)
-            };
-            let mut r = rng(3);
-            let mut ctx = PlanContext::new(&mut r, &interrupt);
-            let plan = solve(
-                planner.as_ref(),
-                &grid,
-                &q,
-                SolveOptions::default(),
-                &mut ctx,
-            );
-            (plan.unwrap(), polls.get())
+            let (plan, polls) = solve_interrupted(planner.as_ref(), &grid, &q, 3, fire_at, what);
+            (plan.unwrap(), polls)
         };
         let run = |fire_at| run_with(fire_at, Interrupt::Deadline);
         let (whole, polls) = run(u64::MAX);
