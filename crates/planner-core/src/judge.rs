@@ -69,6 +69,27 @@ impl PulledBest {
         }
         better
     }
+
+    /// One step of the local search on an answer (the colonies' and IMGA's `local_search`): a
+    /// reroute of `answer` ([`crate::genetic::reroute`], at most `budget` median insertions) is
+    /// offered, and replaces `answer` when it straightens into a better one. Returns whether it
+    /// did.
+    pub fn offer_reroute(
+        &mut self,
+        grid: &PlanningGrid,
+        answer: &mut Vec<Cell>,
+        budget: usize,
+        rng: &mut impl rand::Rng,
+    ) -> bool {
+        let Some(moved) = crate::genetic::reroute(grid, answer, budget, rng) else {
+            return false;
+        };
+        let kept = self.offer(grid, &moved);
+        if kept {
+            *answer = moved;
+        }
+        kept
+    }
 }
 
 #[cfg(test)]

@@ -540,15 +540,11 @@ impl<'a> Colony<'a> {
         // budget at the default step budget).
         let budget = self.steps + 8;
         for _ in 0..self.planner.params.local_search {
-            let Some((cells, _)) = self.best.as_ref() else {
+            let Some((cells, len)) = self.best.as_mut() else {
                 return;
             };
-            let Some(moved) = crate::genetic::reroute(grid, cells, budget, ctx.rng) else {
-                continue;
-            };
-            if self.best_pulled.offer(grid, &moved) {
-                let len = cell_path_length(&moved);
-                self.best = Some((moved, len));
+            if self.best_pulled.offer_reroute(grid, cells, budget, ctx.rng) {
+                *len = cell_path_length(cells);
             }
         }
     }

@@ -607,11 +607,7 @@ impl Generations<'_> {
             let Some((answer, measure)) = self.answer.as_mut() else {
                 return;
             };
-            if let Some(moved) = reroute(grid, answer, self.insertion_budget, ctx.rng) {
-                if measure.offer(grid, &moved) {
-                    *answer = moved;
-                }
-            }
+            measure.offer_reroute(grid, answer, self.insertion_budget, ctx.rng);
         }
     }
 }
