@@ -171,8 +171,8 @@ impl ColonyParams {
             ],
         )?;
         check_counts(0..=100, &[("colony.local_search", self.local_search)])?;
-        // An ant's walk is allocated for this many (width + height) steps, and every walk that
-        // arrives is kept until the iteration's end.
+        // An ant's walk may take this many (width + height) steps, and the baselines keep every
+        // walk that arrives until the iteration's deposit (`working_bytes_beyond_cells`).
         check(
             Range::PositiveUpTo(20.0),
             &[("colony.step_budget_factor", self.step_budget_factor)],
@@ -517,9 +517,10 @@ impl<'a> Colony<'a> {
     }
 
     /// Under [`Judge::Pulled`]: the iteration's [`PULLED_PER_ITERATION`] shortest finished
-    /// walks (with their cell lengths, shortest first: [`keep_shortest`]), straightened by the delete operation
-    /// (on cell centres: `solve` also pins the exact ends) and each in turn that is shorter or
-    /// smoother than the best answer so far, and worse on neither, becomes the best-so-far.
+    /// walks (with their cell lengths, shortest first: [`keep_shortest`]) are straightened by
+    /// the delete operation (on cell centres: `solve` also pins the exact ends), and each in
+    /// turn that is shorter or smoother than the best answer so far, and worse on neither,
+    /// becomes the best-so-far.
     /// The convergence value is the answer's length alone, so a gain in turning only does not
     /// hold the patience rule off. Straightening every ant was most of the colony's time on a large
     /// map (each is a line-of-sight pass over the walk); the shortest staircases are the ones
