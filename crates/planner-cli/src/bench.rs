@@ -3,15 +3,15 @@
 //! A*'s median on the same query in the same run, so figures from different machines compare.
 //!
 //! The queries come from scenario files, or (`--map M --random N --random-seed S`) are drawn on
-//! any map the way Nav2's planner benchmark draws them (`planner_core::grid::sampling`); a pair
+//! any map the way Nav2's planner benchmark draws them (`planner_core::sampling`); a pair
 //! with no path is kept and marked (`astar_found_path: false`), and a summary per map and
 //! planner counts how each planner answered the solvable and the unsolvable ones.
 
 use crate::run::{load_config, Workspace};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use planner_core::grid::sampling::{random_queries, QuerySampling};
 use planner_core::planner::PlannerRng;
+use planner_core::sampling::{random_queries, QuerySampling};
 use planner_core::swarm::pareto::hypervolume_2d;
 use planner_core::PlannerName;
 use rand::SeedableRng;

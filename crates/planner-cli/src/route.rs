@@ -78,8 +78,8 @@ struct RandomRoute {
 /// `--random-routes`: the optimised order against the drawn one on random routes (legs from the
 /// leg matrix's string-pulled grid paths, as the order itself is chosen).
 fn random_routes(args: &RouteArgs, n: usize) -> Result<()> {
-    use planner_core::grid::sampling::random_route;
     use planner_core::planner::PlannerRng;
+    use planner_core::sampling::random_route;
     use rand::SeedableRng;
     let config = load_config(args.common.config.as_deref())?;
     let ws = Workspace::load(&args.map, config)?;

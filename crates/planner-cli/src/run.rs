@@ -4,10 +4,10 @@
 use crate::render::{Drawing, Layer};
 use anyhow::{Context, Result};
 use planner_core::config::PlannerConfig;
-use planner_core::driver::Termination;
 use planner_core::geometry::Point2;
 use planner_core::grid::inflation::PlanningGrid;
 use planner_core::grid::GridMap;
+use planner_core::planner::Termination;
 use planner_core::planner::{Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;

@@ -11,7 +11,7 @@ use crate::field::ApfParams;
 use crate::genetic::GaParams;
 use crate::grid::inflation::InflationConfig;
 use crate::params::{check, ParamError, Range};
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use crate::search::SearchParams;
 use crate::swarm::nsga2::Nsga2Params;
 use crate::swarm::SwarmParams;

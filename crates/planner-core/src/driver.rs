@@ -3,11 +3,10 @@
 //! take one iteration ([`Population::step`]) and how to finish ([`Population::finish`]); [`drive`]
 //! owns everything they used to repeat: the interrupt poll, the iteration count, the budget and
 //! the one patience rule, the convergence curve, the best iteration, the observer hook, and the
-//! typed [`Termination`] that the result carries.
+//! typed [`Termination`] that the result carries (both defined with the result, in
+//! [`crate::planner`]).
 
-use crate::planner::{Interrupt, PlanContext, PlanError, PlanStats, RawPlan};
-use serde::Serialize;
-use std::fmt;
+use crate::planner::{Iteration, PlanContext, PlanError, PlanStats, RawPlan, Termination};
 
 /// Improvements smaller than this do not count (they are rounding, not progress).
 const MIN_IMPROVEMENT: f64 = 1e-12;
@@ -21,59 +20,6 @@ pub struct Budget {
     /// is a best (a finite value); `None` never stops early. One name and one meaning for every
     /// family.
     pub patience: Option<usize>,
-}
-
-/// Why a run stopped. Every plan carries one (`PlanStats::termination`), the CLI prints it and
-/// `/diagnostics` reports it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Termination {
-    /// A method that runs to its end by itself (graph search, field descent) found its path.
-    Completed,
-    /// The iteration budget was used up.
-    MaxIterations,
-    /// No better value for `patience` iterations in a row.
-    Converged { patience: usize },
-    /// The time budget ran out or the caller cancelled; the best path so far came back.
-    Interrupted(Interrupt),
-}
-
-impl Termination {
-    /// The short name the CLI's JSON and `/diagnostics` carry.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Termination::Completed => "completed",
-            Termination::MaxIterations => "max_iterations",
-            Termination::Converged { .. } => "converged",
-            Termination::Interrupted(Interrupt::Deadline) => "deadline",
-            Termination::Interrupted(Interrupt::Cancelled) => "cancelled",
-        }
-    }
-}
-
-impl fmt::Display for Termination {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Termination::Converged { patience } => {
-                write!(f, "converged (no better value for {patience} iterations)")
-            }
-            other => f.write_str(other.as_str()),
-        }
-    }
-}
-
-impl Serialize for Termination {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.as_str())
-    }
-}
-
-/// What the observer hook sees after every iteration.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Iteration {
-    /// 1 for the first iteration.
-    pub number: u64,
-    /// The best value so far (the family's objective; never increases).
-    pub best: f64,
 }
 
 /// A population planner's operators; [`drive`] runs them.
@@ -143,6 +89,7 @@ pub fn drive<P: Population>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::planner::Interrupt;
     use crate::test_support::rng;
 
     /// A population whose best value follows a script.

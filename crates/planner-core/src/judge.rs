@@ -71,7 +71,7 @@ impl PulledBest {
     }
 
     /// One step of the local search on an answer (the colonies' and IMGA's `local_search`): a
-    /// reroute of `answer` ([`crate::genetic::reroute`], at most `budget` median insertions) is
+    /// reroute of `answer` ([`crate::genetic::operators::reroute`], at most `budget` median insertions) is
     /// offered, and replaces `answer` when it straightens into a better one. Returns whether it
     /// did.
     pub fn offer_reroute(
@@ -81,7 +81,7 @@ impl PulledBest {
         budget: usize,
         rng: &mut impl rand::Rng,
     ) -> bool {
-        let Some(moved) = crate::genetic::reroute(grid, answer, budget, rng) else {
+        let Some(moved) = crate::genetic::operators::reroute(grid, answer, budget, rng) else {
             return false;
         };
         let kept = self.offer(grid, &moved);

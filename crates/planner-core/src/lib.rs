@@ -7,21 +7,24 @@
 //!   grid, the one move rule, the one collision rule, path metrics, the delete operation;
 //! - [`planner`]: the one [`Planner`] trait every planner implements, the request, result and
 //!   error types, and [`solve`], which validates, runs, verifies and measures;
-//! - [`driver`]: the one loop of every population planner and the typed [`driver::Termination`];
+//! - [`driver`]: the one loop of every population planner, which ends each run with a typed
+//!   [`planner::Termination`];
 //! - [`seed`]: the potential-field-else-A* path the field-guided planners start from;
 //! - the planner families: [`search`] (A*, any-angle), [`field`] (the potential fields), [`swarm`]
 //!   (the patrol car paper's cat and particle swarms), [`colony`] (the substation paper's ant
 //!   colonies), [`genetic`] (the genetic algorithm paper's IMGA and a plain GA);
-//! - [`registry`]: the one list of planner names, and the builder that maps a name to a planner;
+//! - [`planner_name`]: the one list of planners, by the names users select them by;
+//! - [`registry`]: the builder that maps a name to a planner with its parameters;
 //! - [`route`]: patrol routes, the visiting order of many inspection points and the legs between;
+//! - [`sampling`]: random start/goal pairs (Nav2's benchmark rules) and random routes on any map;
 //! - [`config`]: every parameter section in one struct; [`params`]: how each is checked.
 //!
 //! ```
-//! use planner_core::{grid::{GridMap, InflationConfig, MapInfo, PlanningGrid}, geometry::{Point2, Pose2}, planner::*, registry};
+//! use planner_core::{grid::{GridMap, InflationConfig, MapInfo, PlanningGrid}, geometry::{Point2, Pose2}, planner::*, registry, PlannerName};
 //! let info = MapInfo { width: 20, height: 10, resolution: 0.1, origin: Pose2::default() };
 //! let map = GridMap::new(info, vec![0; 200]).unwrap();
 //! let grid = PlanningGrid::new(&map, &InflationConfig::default()).unwrap();
-//! let config = planner_core::config::PlannerConfig { planner: registry::PlannerName::Astar, ..Default::default() };
+//! let config = planner_core::config::PlannerConfig { planner: PlannerName::Astar, ..Default::default() };
 //! let planner = registry::build(&config).unwrap();
 //! let query = Query { start: Point2::new(0.15, 0.15), goal: Point2::new(1.85, 0.85), tolerance: 0.0 };
 //! let mut rng = <PlannerRng as rand::SeedableRng>::seed_from_u64(7);
@@ -39,8 +42,10 @@ pub mod grid;
 pub mod judge;
 pub mod params;
 pub mod planner;
+pub mod planner_name;
 pub mod registry;
 pub mod route;
+pub mod sampling;
 pub mod search;
 pub mod seed;
 pub mod swarm;
@@ -48,4 +53,4 @@ pub mod swarm;
 pub(crate) mod test_support;
 
 pub use planner::{solve, Plan, PlanContext, PlanError, Planner, PlannerRng, Query, SolveOptions};
-pub use registry::PlannerName;
+pub use planner_name::PlannerName;

@@ -5,18 +5,18 @@
 //! grid coordinates only. [`solve`] wraps it the way Nav2's planner plugins wrap their cores:
 //! it checks the request (finite numbers, inside the map, start and goal free, goal tolerance),
 //! calls the planner, applies the optional delete operation, verifies the result with the one
-//! collision rule of [`crate::raycast`], measures it and converts it to world metres. So no
+//! collision rule of [`crate::grid::raycast`], measures it and converts it to world metres. So no
 //! planner repeats validation, and no planner can hand back a colliding path.
 
-use crate::driver::{Iteration, Termination};
 use crate::geometry::{Cell, Point2};
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::metrics::{drop_collinear, measure, path_length, total_turning, PathMetrics};
 use crate::grid::raycast::{line_of_sight, path_is_free};
 use crate::grid::smoothing::delete_redundant;
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::fmt;
 
 /// The random number generator every planner draws from: portable and seedable, so the same seed
 /// gives the same path on every machine.
@@ -29,6 +29,59 @@ pub enum Interrupt {
     Deadline,
     /// The caller no longer wants the plan (a new goal, shutdown).
     Cancelled,
+}
+
+/// Why a run stopped. Every plan carries one (`PlanStats::termination`), the CLI prints it and
+/// `/diagnostics` reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// A method that runs to its end by itself (graph search, field descent) found its path.
+    Completed,
+    /// The iteration budget was used up.
+    MaxIterations,
+    /// No better value for `patience` iterations in a row.
+    Converged { patience: usize },
+    /// The time budget ran out or the caller cancelled; the best path so far came back.
+    Interrupted(Interrupt),
+}
+
+impl Termination {
+    /// The short name the CLI's JSON and `/diagnostics` carry.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Termination::Completed => "completed",
+            Termination::MaxIterations => "max_iterations",
+            Termination::Converged { .. } => "converged",
+            Termination::Interrupted(Interrupt::Deadline) => "deadline",
+            Termination::Interrupted(Interrupt::Cancelled) => "cancelled",
+        }
+    }
+}
+
+impl fmt::Display for Termination {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Termination::Converged { patience } => {
+                write!(f, "converged (no better value for {patience} iterations)")
+            }
+            other => f.write_str(other.as_str()),
+        }
+    }
+}
+
+impl Serialize for Termination {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+/// What the observer hook sees after every iteration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Iteration {
+    /// 1 for the first iteration.
+    pub number: u64,
+    /// The best value so far (the family's objective; never increases).
+    pub best: f64,
 }
 
 /// What a planner may use besides the problem: randomness, a way to learn it should stop, and

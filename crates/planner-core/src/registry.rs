@@ -1,139 +1,19 @@
-//! The one list of planners: [`PlannerName`], which the CLI, the node, `patrol-plan planners` and
-//! the parameter files all use, and [`build`], the one place that maps a name to an
-//! implementation. A new planner is one variant here, one arm in [`build`], and its module.
+//! [`build`], the one place that maps a name of the one list of planners ([`PlannerName`]) to an
+//! implementation with its parameters. A new planner is one variant of [`PlannerName`], one arm
+//! here, and its module.
 
 use crate::colony::{ColonyPlanner, ColonyVariant};
 use crate::config::PlannerConfig;
-use crate::field::ApfPlanner;
 use crate::genetic::{GaPlanner, GaVariant};
 use crate::params::ParamError;
 use crate::planner::Planner;
+use crate::planner_name::PlannerName;
 use crate::search::any_angle::AnyAngle;
 use crate::search::astar::AStar;
 use crate::search::theta_star::ThetaStar;
+use crate::seed::ApfPlanner;
 use crate::swarm::nsga2::Nsga2Planner;
 use crate::swarm::{SwarmPlanner, Variant};
-use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
-
-/// Every selectable planner. Serialised (parameter files, JSON, `/diagnostics`) by the name users
-/// select it by; an unknown name is refused with the list of valid ones.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(try_from = "String", into = "&'static str")]
-pub enum PlannerName {
-    /// 8-connected A*: the patrol car paper's baseline.
-    Astar,
-    /// The exact any-angle shortest path: every table's reference.
-    AnyAngle,
-    /// The patrol car paper's potential field alone (eq. 1-9).
-    Apf,
-    /// The patrol car paper's planner: multi-objective Cauchy-mutation cat swarm.
-    Mocmcso,
-    Mocso,
-    Mopso,
-    Cmcso,
-    Cso,
-    Pso,
-    /// The substation paper's enhanced potential field alone.
-    Eapf,
-    /// The substation paper's planner: EAPF-guided improved ant colony.
-    EapfIaco,
-    Aco,
-    AcoApf,
-    /// The genetic algorithm paper's improved multi-objective GA.
-    Imga,
-    Ga,
-    Nsga2,
-    ThetaStar,
-}
-
-impl PlannerName {
-    /// Every planner, in the order tables list them.
-    pub const ALL: [PlannerName; 17] = [
-        PlannerName::Astar,
-        PlannerName::AnyAngle,
-        PlannerName::Apf,
-        PlannerName::Mocmcso,
-        PlannerName::Mocso,
-        PlannerName::Mopso,
-        PlannerName::Cmcso,
-        PlannerName::Cso,
-        PlannerName::Pso,
-        PlannerName::Eapf,
-        PlannerName::EapfIaco,
-        PlannerName::Aco,
-        PlannerName::AcoApf,
-        PlannerName::Imga,
-        PlannerName::Ga,
-        PlannerName::Nsga2,
-        PlannerName::ThetaStar,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            PlannerName::Astar => "astar",
-            PlannerName::AnyAngle => "any_angle",
-            PlannerName::Apf => "apf",
-            PlannerName::Mocmcso => "mocmcso",
-            PlannerName::Mocso => "mocso",
-            PlannerName::Mopso => "mopso",
-            PlannerName::Cmcso => "cmcso",
-            PlannerName::Cso => "cso",
-            PlannerName::Pso => "pso",
-            PlannerName::Eapf => "eapf",
-            PlannerName::EapfIaco => "eapf_iaco",
-            PlannerName::Aco => "aco",
-            PlannerName::AcoApf => "aco_apf",
-            PlannerName::Imga => "imga",
-            PlannerName::Ga => "ga",
-            PlannerName::Nsga2 => "nsga2",
-            PlannerName::ThetaStar => "theta_star",
-        }
-    }
-
-    /// The valid names, comma-separated, for error messages and help texts.
-    pub fn list() -> String {
-        Self::ALL.map(Self::as_str).join(", ")
-    }
-}
-
-impl fmt::Display for PlannerName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl From<PlannerName> for &'static str {
-    fn from(name: PlannerName) -> Self {
-        name.as_str()
-    }
-}
-
-impl TryFrom<String> for PlannerName {
-    type Error = ParamError;
-
-    fn try_from(name: String) -> Result<Self, ParamError> {
-        name.parse()
-    }
-}
-
-impl FromStr for PlannerName {
-    type Err = ParamError;
-
-    /// A planner by name; the error lists the valid ones.
-    fn from_str(name: &str) -> Result<Self, ParamError> {
-        Self::ALL
-            .into_iter()
-            .find(|p| p.as_str() == name)
-            .ok_or_else(|| {
-                ParamError::new(
-                    "planner",
-                    format!("unknown planner `{name}`; choose one of {}", Self::list()),
-                )
-            })
-    }
-}
 
 /// Builds `config.planner` with the parameters of `config` (validated first).
 pub fn build(config: &PlannerConfig) -> Result<Box<dyn Planner>, ParamError> {
@@ -288,9 +168,9 @@ mod tests {
     /// swarms' encodings used to panic on it).
     #[test]
     fn a_goal_in_the_start_cell_gets_the_trivial_path_from_every_planner() {
-        use crate::driver::Termination;
         use crate::geometry::Point2;
         use crate::planner::Query;
+        use crate::planner::Termination;
         use crate::test_support::{grid_from_rows, solve_seeded};
         let grid = grid_from_rows(&["....", "....", "...."]);
         for (start, goal) in [

@@ -4,11 +4,12 @@
 //! all bench maps is `patrol-plan bench` (see docs/results/).
 
 use planner_core::config::PlannerConfig;
-use planner_core::driver::Termination;
 use planner_core::grid::inflation::PlanningGrid;
 use planner_core::planner::Interrupt;
+use planner_core::planner::Termination;
 use planner_core::planner::{solve, PlanContext, PlanError, PlannerRng, Query, SolveOptions};
-use planner_core::registry::{build, PlannerName};
+use planner_core::registry::build;
+use planner_core::PlannerName;
 use rand::SeedableRng;
 use std::path::PathBuf;
 

@@ -10,6 +10,7 @@ mod convert;
 mod follow;
 mod inputs;
 mod lifecycle;
+mod lifecycle_services;
 mod localization;
 mod node;
 mod outputs;

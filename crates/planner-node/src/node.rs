@@ -26,7 +26,7 @@ use crate::actions;
 use crate::convert;
 use crate::follow;
 use crate::inputs;
-use crate::lifecycle;
+use crate::lifecycle_services;
 use crate::localization::Localization;
 use crate::outputs::{CmdVel, Outputs};
 use crate::params::{validate_parameter, with_weight, WEIGHTS};
@@ -460,23 +460,23 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         goal_tx,
     ));
     tasks.spawn(planning::plan_goals(shared.clone(), out.clone(), goal_rx));
-    tasks.spawn(lifecycle::serve::change_state(
+    tasks.spawn(lifecycle_services::change_state(
         shared.clone(),
         change_state,
         events,
     ));
-    tasks.spawn(lifecycle::serve::get_state(shared.clone(), get_state));
+    tasks.spawn(lifecycle_services::get_state(shared.clone(), get_state));
     if params.bond_heartbeat_period > 0.0 {
-        tasks.spawn(lifecycle::serve::bond(
+        tasks.spawn(lifecycle_services::bond(
             shared.clone(),
             bond_pub,
             naming.node.clone(),
             params.bond_heartbeat_period,
         ));
     }
-    tasks.spawn(lifecycle::serve::get_available_states(get_states));
+    tasks.spawn(lifecycle_services::get_available_states(get_states));
     for (server, whole_graph) in transition_servers {
-        tasks.spawn(lifecycle::serve::get_transitions(
+        tasks.spawn(lifecycle_services::get_transitions(
             shared.clone(),
             server,
             whole_graph,

@@ -42,7 +42,7 @@ use crate::grid::{MapInfo, PlanningGrid};
 use crate::judge::PulledBest;
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use crate::search::astar::cell_path_length;
 use crate::seed::field_or_astar_on;
 use pheromone::{Evaporation, Pheromone};
@@ -109,7 +109,7 @@ pub struct ColonyParams {
     /// (config/paper.yaml): the papers' heuristics alone.
     pub guidance: Guidance,
     /// Beyond the papers: a local search on the best-so-far ant after each iteration's walks,
-    /// this many tries of IMGA's reroute ([`crate::genetic::reroute`]: a stretch of the path
+    /// this many tries of IMGA's reroute ([`crate::genetic::operators::reroute`]: a stretch of the path
     /// replaced by median insertion through a random cell near its middle), each kept when its
     /// straightened path is a better answer (under `judge: pulled` only). In `eapf_iaco` the
     /// best-so-far is what eq. 20-22 reinforce, so the ants then follow the improved path; the

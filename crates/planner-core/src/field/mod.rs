@@ -40,9 +40,6 @@
 use crate::geometry::{Cell, Point2, Vector2};
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::raycast::line_of_sight;
-use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::registry::PlannerName;
-use crate::seed::field_or_astar;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the field and of its escape. Distances in metres.
@@ -219,51 +216,6 @@ impl<'a> PotentialField<'a> {
             }
         };
         -Vector2::new((phi(1, 0) - phi(-1, 0)) / h, (phi(0, 1) - phi(0, -1)) / h)
-    }
-}
-
-/// Planners `apf` (the patrol car paper's field, eq. 1-9) and `eapf` (the substation paper's
-/// enhanced field: eq. 1-2 without eq. 9's factor, with the same virtual-traction escape): the
-/// potential-field path alone. When even the escape cannot reach the goal within its step budget
-/// it reports that (`notes`, counter `apf_fallback`) and returns A*'s path instead.
-#[derive(Clone, Debug, Default)]
-pub struct ApfPlanner {
-    pub params: ApfParams,
-    /// `eapf` rather than `apf`: the substation paper's field.
-    pub substation_field: bool,
-}
-
-impl ApfPlanner {
-    /// The substation paper's EAPF with these parameters (eq. 9's factor off).
-    pub fn eapf(params: &ApfParams) -> Self {
-        Self {
-            params: ApfParams {
-                goal_distance_factor: false,
-                ..params.clone()
-            },
-            substation_field: true,
-        }
-    }
-}
-
-impl Planner for ApfPlanner {
-    fn name(&self) -> PlannerName {
-        if self.substation_field {
-            PlannerName::Eapf
-        } else {
-            PlannerName::Apf
-        }
-    }
-
-    fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {
-        let mut stats = PlanStats::default();
-        let cells = field_or_astar(problem, &self.params, ctx, &mut stats, "path")?;
-        stats.iterations = cells.len() as u64;
-        Ok(RawPlan {
-            waypoints: cells.iter().map(|c| c.center()).collect(),
-            stats,
-            ..RawPlan::default()
-        })
     }
 }
 

@@ -9,8 +9,7 @@
 //! - [`moves`]: the one 8-neighbour move rule (no corner cutting) of every grid walk;
 //! - [`raycast`]: the one collision rule for segments (supercover line of sight);
 //! - [`metrics`]: length, turning, clearance of a path;
-//! - [`smoothing`]: the genetic algorithm paper's delete operation (section 4.5);
-//! - [`sampling`]: random start/goal pairs (Nav2's benchmark rules) and random routes on any map.
+//! - [`smoothing`]: the genetic algorithm paper's delete operation (section 4.5).
 
 pub mod inflation;
 pub mod map;
@@ -18,7 +17,6 @@ pub mod metrics;
 pub mod moves;
 pub mod parsers;
 pub mod raycast;
-pub mod sampling;
 pub mod smoothing;
 
 pub use inflation::{InflationConfig, PlanningGrid};

@@ -44,8 +44,8 @@ impl Planner for AnyAngle {
         crate::planner::ASTAR_BYTES_PER_CELL + 40
     }
 
-    fn name(&self) -> crate::registry::PlannerName {
-        crate::registry::PlannerName::AnyAngle
+    fn name(&self) -> crate::planner_name::PlannerName {
+        crate::planner_name::PlannerName::AnyAngle
     }
 
     fn plan(&self, problem: &Problem<'_>, ctx: &mut PlanContext<'_>) -> Result<RawPlan, PlanError> {

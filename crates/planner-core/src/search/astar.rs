@@ -11,7 +11,7 @@ use crate::geometry::{Cell, NEIGHBOURS_8};
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::moves::{allowed, step_length};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 

@@ -17,7 +17,7 @@ use crate::geometry::{Cell, Point2};
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::raycast::{blocked_and_cost_length, line_of_sight};
 use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 

@@ -33,7 +33,7 @@ pub mod encoding;
 pub mod nsga2;
 pub mod pareto;
 
-use crate::driver::{drive, Budget, Population, Termination};
+use crate::driver::{drive, Budget, Population};
 use crate::field::ApfParams;
 use crate::geometry::Point2;
 use crate::grid::inflation::PlanningGrid;
@@ -43,8 +43,9 @@ use crate::grid::smoothing::{delete_redundant, delete_redundant_weighted};
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{
     Interrupt, ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan,
+    Termination,
 };
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use crate::search::astar::astar_cells_cost_aware;
 use crate::seed::field_or_astar;
 use encoding::Encoding;
@@ -996,7 +997,7 @@ mod tests {
     #[test]
     fn smoothing_copies_straighten_the_chosen_path() {
         use crate::config::PlannerConfig;
-        use crate::registry::PlannerName;
+        use crate::planner_name::PlannerName;
         let run = |smoothing: f64| {
             let mut config = PlannerConfig {
                 planner: PlannerName::Mocmcso,
@@ -1029,7 +1030,7 @@ mod tests {
     #[test]
     fn the_polish_only_keeps_moves_that_lose_nothing() {
         use crate::config::PlannerConfig;
-        use crate::registry::PlannerName;
+        use crate::planner_name::PlannerName;
         use crate::test_support::solve_seeded;
         let (grid, q) = pillar_room();
         // The answer's objectives, as its front member carries them.
@@ -1076,7 +1077,7 @@ mod tests {
     #[test]
     fn the_polish_stops_at_the_deadline() {
         use crate::config::PlannerConfig;
-        use crate::registry::PlannerName;
+        use crate::planner_name::PlannerName;
         use crate::test_support::solve_interrupted;
         let (grid, q) = pillar_room();
         let planner = crate::registry::build(&PlannerConfig {
@@ -1121,7 +1122,7 @@ mod tests {
     #[test]
     fn more_safety_weight_moves_the_chosen_path_off_the_walls() {
         use crate::config::PlannerConfig;
-        use crate::registry::PlannerName;
+        use crate::planner_name::PlannerName;
         let chosen = |safety: f64| {
             let mut config = PlannerConfig {
                 planner: PlannerName::Mocmcso,

@@ -20,7 +20,7 @@ use crate::driver::{drive, Budget, Population};
 use crate::field::ApfParams;
 use crate::params::{check, check_counts, ParamError, Range};
 use crate::planner::{ParetoMember, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
-use crate::registry::PlannerName;
+use crate::planner_name::PlannerName;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 

@@ -1,0 +1,187 @@
+//! The lifecycle services and topic of a managed node, on the node's own names (`~/change_state`,
+//! `~/get_state`, `~/get_available_states`, `~/get_available_transitions`,
+//! `~/get_transition_graph`, `~/transition_event`), as rclcpp_lifecycle offers them.
+//!
+//! The state machine itself is [`crate::lifecycle`]; this module is its ROS face.
+
+use crate::lifecycle::{State, Transition};
+use crate::state::Shared;
+use log::{info, warn};
+use patrol_msgs::lifecycle_msgs::*;
+use ros2_client::{Publisher, Server};
+use std::sync::Arc;
+
+/// ChangeState: applies an allowed transition and reports it on `transition_event`; a
+/// transition not allowed from the current state is refused (`success: false`), as rclcpp
+/// refuses it. Deactivating stops the robot: the follower brakes to a stop.
+pub async fn change_state(
+    s: Arc<Shared>,
+    server: Server<ChangeStateRequest, ChangeStateResponse>,
+    events: Publisher<TransitionEvent>,
+) {
+    loop {
+        let Ok((id, req)) = server.async_receive_request().await else {
+            continue;
+        };
+        let (success, event) = {
+            let mut state = s.lifecycle.write().expect("lock");
+            let current = *state;
+            match Transition::from_request(&req.transition, current)
+                .and_then(|t| current.after(t).map(|next| (t, next)))
+            {
+                Some((t, next)) => {
+                    *state = next;
+                    if next != State::Active {
+                        *s.follower.lock().expect("lock") = None;
+                    }
+                    let event = TransitionEvent {
+                        timestamp: stamp_ns(),
+                        transition: t.msg(),
+                        start_state: current.msg(),
+                        goal_state: next.msg(),
+                    };
+                    info!(
+                        "lifecycle: {} -> {} ({})",
+                        current.label(),
+                        next.label(),
+                        t.label()
+                    );
+                    (true, Some(event))
+                }
+                None => {
+                    warn!(
+                        "lifecycle: transition {} `{}` is not allowed from {}",
+                        req.transition.id,
+                        req.transition.label,
+                        current.label()
+                    );
+                    (false, None)
+                }
+            }
+        };
+        if let Some(event) = event {
+            if let Err(e) = events.async_publish(event).await {
+                warn!("transition_event: {e:?}");
+            }
+        }
+        if let Err(e) = server
+            .async_send_response(id, ChangeStateResponse { success })
+            .await
+        {
+            warn!("change_state response: {e:?}");
+        }
+    }
+}
+
+/// GetState.
+pub async fn get_state(s: Arc<Shared>, server: Server<EmptyRequest, GetStateResponse>) {
+    loop {
+        let Ok((id, _)) = server.async_receive_request().await else {
+            continue;
+        };
+        let current_state = s.lifecycle.read().expect("lock").msg();
+        if let Err(e) = server
+            .async_send_response(id, GetStateResponse { current_state })
+            .await
+        {
+            warn!("get_state response: {e:?}");
+        }
+    }
+}
+
+/// GetAvailableStates: the four primary states.
+pub async fn get_available_states(server: Server<EmptyRequest, GetAvailableStatesResponse>) {
+    loop {
+        let Ok((id, _)) = server.async_receive_request().await else {
+            continue;
+        };
+        let available_states = State::all().map(State::msg).to_vec();
+        if let Err(e) = server
+            .async_send_response(id, GetAvailableStatesResponse { available_states })
+            .await
+        {
+            warn!("get_available_states response: {e:?}");
+        }
+    }
+}
+
+/// GetAvailableTransitions (from the current state) or, with `whole_graph`,
+/// GetTransitionGraph (from every state).
+pub async fn get_transitions(
+    s: Arc<Shared>,
+    server: Server<EmptyRequest, GetAvailableTransitionsResponse>,
+    whole_graph: bool,
+) {
+    loop {
+        let Ok((id, _)) = server.async_receive_request().await else {
+            continue;
+        };
+        let available_transitions = if whole_graph {
+            State::all()
+                .iter()
+                .flat_map(|st| st.descriptions())
+                .collect()
+        } else {
+            s.lifecycle.read().expect("lock").descriptions()
+        };
+        if let Err(e) = server
+            .async_send_response(
+                id,
+                GetAvailableTransitionsResponse {
+                    available_transitions,
+                },
+            )
+            .await
+        {
+            warn!("get_available_transitions response: {e:?}");
+        }
+    }
+}
+
+/// The bond heartbeat Nav2's lifecycle manager expects of a server (bondcpp's protocol, as
+/// nav2_util::LifecycleNode creates it on activate): while active, `bond/Status` with the
+/// node's name as the bond id, this process's instance id and `active: true`, every
+/// `period`; on leaving active, a few `active: false` to break the bond cleanly.
+pub async fn bond(
+    s: Arc<Shared>,
+    publisher: Publisher<patrol_msgs::bond::Status>,
+    node_name: String,
+    period: f64,
+) {
+    use patrol_msgs::bond::Status;
+    let instance_id = format!("{}-{:016x}", std::process::id(), rand::random::<u64>());
+    let status = |active: bool| Status {
+        header: patrol_msgs::std_msgs::Header {
+            stamp: ros_edge::now(),
+            frame_id: String::new(),
+        },
+        id: node_name.clone(),
+        instance_id: instance_id.clone(),
+        active,
+        heartbeat_timeout: 4.0,
+        heartbeat_period: period as f32,
+    };
+    let mut ticker = tokio::time::interval(std::time::Duration::from_secs_f64(period));
+    // Breaking statuses still to send after leaving active.
+    let mut breaking = 0;
+    loop {
+        ticker.tick().await;
+        let active = *s.lifecycle.read().expect("lock") == State::Active;
+        if active {
+            breaking = 3;
+        } else if breaking > 0 {
+            breaking -= 1;
+        } else {
+            continue;
+        }
+        if let Err(e) = publisher.async_publish(status(active)).await {
+            warn!("bond: {e:?}");
+        }
+    }
+}
+
+fn stamp_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}
