@@ -16,9 +16,15 @@
 //! 2. Only corner vertices inside the ellipse `|s - v| + |v - g| <= bound` can lie on a shorter
 //!    path.
 //! 3. A* over the visibility graph of those vertices (Euclidean heuristic), testing line of sight
-//!    lazily and only for edges that could still beat the bound.
+//!    lazily and only for edges that could still beat the bound and that are tangent to the
+//!    obstacle at each corner they join (the reduced visibility graph, which holds every
+//!    shortest path: a path that bends at a corner wraps round its blocked cell, so each of its
+//!    two segments leaves the corner without entering that cell's quadrant on either side).
 //!
 //! The answer is the shorter of the bound and the graph search, so it is never longer than A*.
+//! When the deadline (or a cancel) comes during the graph search, the bound is the answer, with
+//! the plan marked cut short: a feasible path, not the exact optimum, as the population planners
+//! answer with their best so far.
 
 /// How far (cells) a corner vertex is moved off the obstacle corner into free space.
 pub const NUDGE: f64 = 1e-6;
@@ -28,7 +34,9 @@ use crate::grid::inflation::PlanningGrid;
 use crate::grid::metrics::path_length;
 use crate::grid::raycast::line_of_sight;
 use crate::grid::smoothing::delete_redundant;
-use crate::planner::{PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan};
+use crate::planner::{
+    Interrupt, PlanContext, PlanError, PlanStats, Planner, Problem, RawPlan, Termination,
+};
 use crate::search::astar::astar_cells;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -65,14 +73,32 @@ impl Planner for AnyAngle {
         let s = problem.start_point;
         let g = problem.goal_point;
         // Node 0 is the start, node 1 the goal, the rest are candidate bend points.
-        let mut nodes = vec![s, g];
+        let mut nodes = vec![
+            Vertex {
+                at: s,
+                corner: None,
+            },
+            Vertex {
+                at: g,
+                corner: None,
+            },
+        ];
         nodes.extend(
-            corner_vertices(grid).filter(|&v| (v - s).norm() + (v - g).norm() <= bound + 1e-9),
+            corners(grid).filter(|v| (v.at - s).norm() + (v.at - g).norm() <= bound + 1e-9),
         );
         stats
             .counters
             .insert("candidates".into(), (nodes.len() - 2) as f64);
-        let result = visibility_astar(grid, &nodes, bound, ctx, &mut stats)?;
+        let result = match visibility_astar(grid, &nodes, bound, ctx, &mut stats) {
+            Ok(result) => result,
+            Err(PlanError::TimedOut) => {
+                return Ok(cut_short(bound_path, stats, Interrupt::Deadline))
+            }
+            Err(PlanError::Cancelled) => {
+                return Ok(cut_short(bound_path, stats, Interrupt::Cancelled))
+            }
+            Err(e) => return Err(e),
+        };
         let waypoints = match result {
             Some(path) if path_length(&path) < bound => path,
             _ => bound_path,
@@ -85,9 +111,57 @@ impl Planner for AnyAngle {
     }
 }
 
+/// The bound as the answer of a graph search that the interrupt ended: a feasible path, maybe
+/// longer than the exact optimum, and the plan says so.
+fn cut_short(bound_path: Vec<Point2>, mut stats: PlanStats, why: Interrupt) -> RawPlan {
+    stats.cut_short = true;
+    stats.termination = Some(Termination::Interrupted(why));
+    stats.notes.push(format!(
+        "the exact search was cut short ({}) after {} expansions: the string-pulled A* path is \
+         returned, which may be longer than the any-angle optimum",
+        Termination::Interrupted(why),
+        stats.iterations
+    ));
+    RawPlan {
+        waypoints: bound_path,
+        stats,
+        ..RawPlan::default()
+    }
+}
+
+/// A node of the visibility graph: the start, the goal, or a corner with the quadrant of its
+/// blocked cell.
+#[derive(Clone, Copy, Debug)]
+struct Vertex {
+    /// Where the path may bend (a corner: nudged into free space).
+    at: Point2,
+    /// For a corner: the lattice point and the signs (x, y) of the direction from it into its
+    /// blocked cell.
+    corner: Option<(Point2, (f64, f64))>,
+}
+
+impl Vertex {
+    /// Whether the line through this vertex and `other` stays out of this vertex's blocked cell
+    /// on both sides (always, for the start and the goal): a segment of a shortest path that
+    /// ends at a corner does. Measured between lattice points, so a segment along a cell's edge
+    /// counts as tangent whatever the nudges.
+    fn tangent(&self, other: &Vertex) -> bool {
+        let Some((lattice, (sx, sy))) = self.corner else {
+            return true;
+        };
+        let d = other.corner.map_or(other.at, |(p, _)| p) - lattice;
+        sx * d.x * sy * d.y <= 1e-9 * d.norm_squared()
+    }
+}
+
 /// The convex corners of the blocked region (lattice points with exactly one blocked cell among
 /// the four around them), each nudged [`NUDGE`] cells into the diagonally opposite free cell.
 pub fn corner_vertices(grid: &PlanningGrid) -> impl Iterator<Item = Point2> + '_ {
+    corners(grid).map(|v| v.at)
+}
+
+/// [`corner_vertices`] with the quadrant of each corner's blocked cell.
+fn corners(grid: &PlanningGrid) -> impl Iterator<Item = Vertex> + '_ {
     let (w, h) = (grid.width() as i32, grid.height() as i32);
     (1..h)
         .flat_map(move |y| (1..w).map(move |x| (x, y)))
@@ -103,9 +177,10 @@ pub fn corner_vertices(grid: &PlanningGrid) -> impl Iterator<Item = Point2> + '_
                 .iter()
                 .filter(|&&(cx, cy, _, _)| !grid.is_free(Cell::new(cx, cy)));
             match (blocked.next(), blocked.next()) {
-                (Some(&(_, _, sx, sy)), None) => {
-                    Some(Point2::new(x as f64 - sx * NUDGE, y as f64 - sy * NUDGE))
-                }
+                (Some(&(_, _, sx, sy)), None) => Some(Vertex {
+                    at: Point2::new(x as f64 - sx * NUDGE, y as f64 - sy * NUDGE),
+                    corner: Some((Point2::new(x as f64, y as f64), (sx, sy))),
+                }),
                 _ => None,
             }
         })
@@ -131,15 +206,17 @@ impl PartialOrd for Open {
     }
 }
 
-/// A* from node 0 to node 1 over the complete graph of `nodes`, edges existing where there is
-/// line of sight, pruning anything that cannot beat `bound`.
+/// A* from vertex 0 to vertex 1 over the complete graph of `vertices`, edges existing where there
+/// is line of sight, pruning anything that cannot beat `bound` or is not tangent at a corner
+/// ([`Vertex::tangent`]).
 fn visibility_astar(
     grid: &PlanningGrid,
-    nodes: &[Point2],
+    vertices: &[Vertex],
     bound: f64,
     ctx: &PlanContext<'_>,
     stats: &mut PlanStats,
 ) -> Result<Option<Vec<Point2>>, PlanError> {
+    let nodes: Vec<Point2> = vertices.iter().map(|v| v.at).collect();
     let n = nodes.len();
     let goal = nodes[1];
     let h: Vec<f64> = nodes.iter().map(|&p| (goal - p).norm()).collect();
@@ -176,6 +253,9 @@ fn visibility_astar(
             }
             let nd = g[u] + (nodes[v] - nodes[u]).norm();
             if nd >= g[v] || nd + h[v] > bound + 1e-9 {
+                continue;
+            }
+            if !vertices[u].tangent(&vertices[v]) || !vertices[v].tangent(&vertices[u]) {
                 continue;
             }
             los_checks += 1;
@@ -267,6 +347,49 @@ mod tests {
             out.push('\n');
         }
         out
+    }
+
+    /// A deadline or a cancel during the graph search answers with the bound (the
+    /// string-pulled A* path): feasible, marked cut short with the interrupt as its termination,
+    /// and a note that says the optimum was not reached; never shorter than the exact answer.
+    #[test]
+    fn an_interrupt_in_the_graph_search_returns_the_bound() {
+        use crate::planner::Interrupt;
+        use crate::test_support::{hall, solve_interrupted};
+        let (grid, q) = hall(false);
+        let (whole, polls) =
+            solve_interrupted(&AnyAngle, &grid, &q, 1, u64::MAX, Interrupt::Deadline);
+        let whole = whole.unwrap();
+        assert!(!whole.stats.cut_short);
+        assert_eq!(whole.stats.termination, Some(Termination::Completed));
+        // Each expansion of the graph search polls once; the last polls are its.
+        assert!(whole.stats.iterations >= 2, "{}", whole.stats.iterations);
+        for what in [Interrupt::Deadline, Interrupt::Cancelled] {
+            let (part, _) = solve_interrupted(&AnyAngle, &grid, &q, 1, polls - 1, what);
+            let part = part.unwrap_or_else(|e| panic!("{what:?}: {e}"));
+            assert!(part.stats.cut_short);
+            assert_eq!(part.stats.termination, Some(Termination::Interrupted(what)));
+            assert!(part.metrics.collision_free);
+            assert!(part.metrics.length_m >= whole.metrics.length_m - 1e-9);
+            assert!(part.stats.notes.iter().any(|n| n.contains("cut short")));
+        }
+    }
+
+    /// Pruning the edges that are not tangent at their corners changes no answer (the brute
+    /// force below checks the length on random grids) and saves most line-of-sight tests: on a
+    /// hall of pillars, under a third of those without it.
+    #[test]
+    fn tangent_pruning_saves_line_of_sight_tests() {
+        use crate::test_support::{hall, solve_seeded};
+        let (grid, q) = hall(true);
+        let plan = solve_seeded(&AnyAngle, &grid, &q, 1).unwrap();
+        let checks = plan.stats.counters["los_checks"];
+        let candidates = plan.stats.counters["candidates"];
+        let expansions = plan.stats.iterations as f64;
+        assert!(
+            checks < expansions * candidates / 3.0,
+            "{checks} of {expansions} x {candidates}"
+        );
     }
 
     proptest! {
