@@ -213,9 +213,9 @@ pub enum PlanError {
     StartOutsideMap(Point2),
     #[error("goal ({}, {}) is outside the map", .0.x, .0.y)]
     GoalOutsideMap(Point2),
-    #[error("start ({}, {}) is in an obstacle or within the inflation radius of one", .0.x, .0.y)]
+    #[error("start ({}, {}) is in an obstacle, in unknown space or within the inflation radius of an obstacle", .0.x, .0.y)]
     StartOccupied(Point2),
-    #[error("goal ({}, {}) is in an obstacle or within the inflation radius of one, and no free cell lies within the tolerance", .0.x, .0.y)]
+    #[error("goal ({}, {}) is in an obstacle, in unknown space or within the inflation radius of an obstacle, and no free cell lies within the tolerance", .0.x, .0.y)]
     GoalOccupied(Point2),
     #[error("no valid path: {0}")]
     NoValidPath(String),
@@ -345,6 +345,13 @@ pub fn solve(
         planner.plan(&problem, ctx)?
     };
     raw.stats.termination.get_or_insert(Termination::Completed);
+    note_moved_ends(
+        grid,
+        query,
+        &problem,
+        options.start_tolerance,
+        &mut raw.stats,
+    );
     let smoothing = options
         .smoothing
         .unwrap_or_else(|| planner.smooth_by_default());
@@ -397,6 +404,47 @@ pub fn solve(
         goal: info.grid_to_world(problem.goal_point),
         resolution: info.resolution,
     })
+}
+
+/// Notes where the plan's start or goal is not the one asked for: an end in an obstacle, unknown
+/// space or the inflated band moved to the nearest free cell's centre within its tolerance
+/// (`start_tolerance`, the goal `tolerance`), as Nav2's planners move them; the note says where
+/// to and how far, so a user sees why the path does not begin or end at the pose sent.
+fn note_moved_ends(
+    grid: &PlanningGrid,
+    query: &Query,
+    problem: &Problem<'_>,
+    start_tolerance: f64,
+    stats: &mut PlanStats,
+) {
+    let info = grid.info();
+    let ends = [
+        (
+            "start",
+            query.start,
+            problem.start_point,
+            "start_tolerance",
+            start_tolerance,
+        ),
+        (
+            "goal",
+            query.goal,
+            problem.goal_point,
+            "tolerance",
+            query.tolerance,
+        ),
+    ];
+    for (what, asked, used, knob, tolerance) in ends {
+        let used = info.grid_to_world(used);
+        let moved = (used - asked).norm();
+        if moved > 1e-6 {
+            stats.notes.push(format!(
+                "the {what} ({:.3}, {:.3}) is not free: the plan uses the nearest free cell's \
+                 centre ({:.3}, {:.3}), {moved:.3} m away ({knob} {tolerance} m)",
+                asked.x, asked.y, used.x, used.y
+            ));
+        }
+    }
 }
 
 /// Whether `answer` is better than `seed`, each as (length, turning) in one unit of length, the

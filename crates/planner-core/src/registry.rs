@@ -240,6 +240,20 @@ mod tests {
             "{first:?}"
         );
         assert!(plan.metrics.collision_free);
+        // The plan says where its start moved, and only that (the goal was free).
+        let moved: Vec<&String> = plan
+            .stats
+            .notes
+            .iter()
+            .filter(|n| n.contains("not free"))
+            .collect();
+        assert_eq!(moved.len(), 1, "{:?}", plan.stats.notes);
+        assert!(
+            moved[0].contains("start (1.050, 0.250)")
+                && moved[0].contains("(1.050, 0.450), 0.200 m away"),
+            "{}",
+            moved[0]
+        );
     }
 
     /// A plan whose planner's working tables would pass the memory cap is refused before it

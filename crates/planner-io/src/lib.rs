@@ -10,16 +10,18 @@ use planner_core::grid::parsers::scenarios::ScenarioFile;
 use planner_core::grid::{GridMap, MapError};
 use std::path::{Path, PathBuf};
 
-/// Everything that can go wrong loading a file, with the path in the message.
+/// Everything that can go wrong loading a file, with the path in the message. The reason is
+/// part of the message and not also the error's `source()`, so a chain printer (anyhow's
+/// `{:#}`) says it once.
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {reason}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        reason: std::io::Error,
     },
-    #[error("{path}: {source}")]
-    Map { path: PathBuf, source: MapError },
+    #[error("{path}: {reason}")]
+    Map { path: PathBuf, reason: MapError },
     #[error("{path}: {message}")]
     Config { path: PathBuf, message: String },
 }
@@ -31,9 +33,9 @@ pub const MAX_FILE_BYTES: u64 = 256 << 20;
 
 fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
     use std::io::Read;
-    let io = |source| LoadError::Io {
+    let io = |reason| LoadError::Io {
         path: path.to_owned(),
-        source,
+        reason,
     };
     let file = std::fs::File::open(path).map_err(io)?;
     let meta = file.metadata().map_err(io)?;
@@ -59,9 +61,9 @@ fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
 }
 
 fn map_err(path: &Path) -> impl FnOnce(MapError) -> LoadError + '_ {
-    move |source| LoadError::Map {
+    move |reason| LoadError::Map {
         path: path.to_owned(),
-        source,
+        reason,
     }
 }
 

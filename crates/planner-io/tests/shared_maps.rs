@@ -170,6 +170,21 @@ fn a_missing_image_is_an_error_naming_it() {
     let err = load_map_server(&yaml).unwrap_err();
     assert!(matches!(err, LoadError::Io { .. }), "{err}");
     assert!(err.to_string().contains("nowhere.pgm"), "{err}");
+    // The reason is in the message, and not again as its source: an error-chain printer
+    // (anyhow's `{:#}`, the CLI's) says it once.
+    assert!(std::error::Error::source(&err).is_none(), "{err}");
+    std::fs::write(
+        &yaml,
+        "image: nowhere.pgm\nresolution: 0\norigin: [0, 0, 0]\n",
+    )
+    .unwrap();
+    let err = load_map_server(&yaml).unwrap_err();
+    assert!(std::error::Error::source(&err).is_none(), "{err}");
+    assert_eq!(
+        err.to_string().matches("resolution 0 m").count(),
+        1,
+        "{err}"
+    );
 }
 
 /// Files that are not files, or too big, are refused before they are read: `image: /dev/zero`

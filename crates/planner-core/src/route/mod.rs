@@ -67,7 +67,7 @@ use std::fmt;
 pub enum SkipReason {
     /// Its position is outside the map.
     OutsideMap,
-    /// Its cell is an obstacle, or within the inflation radius of one.
+    /// Its cell is an obstacle, unknown, or within the inflation radius of an obstacle.
     Occupied,
     /// It is free, but no path from the start reaches it.
     CutOff,
@@ -77,7 +77,9 @@ impl fmt::Display for SkipReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             SkipReason::OutsideMap => "is outside the map",
-            SkipReason::Occupied => "is in an obstacle or within the inflation radius of one",
+            SkipReason::Occupied => {
+                "is in an obstacle, in unknown space or within the inflation radius of an obstacle"
+            }
             SkipReason::CutOff => "is cut off: no path from the start reaches it",
         })
     }
