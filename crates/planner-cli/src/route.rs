@@ -144,7 +144,9 @@ pub fn run(args: &RouteArgs) -> Result<()> {
         ..RouteOptions::default()
     };
     // Each leg through the same path as `plan` (the config's time budget, smoothing and seed),
-    // exactly from point to point.
+    // exactly from point to point. A leg the time budget cut short counts as timed out: the
+    // route then takes the matrix's string-pulled path and its notes say so, rather than take a
+    // path its planner did not finish without a word.
     let mut legs = |from: Point2, to: Point2| -> Result<Vec<Point2>, PlanError> {
         let query = Query {
             start: from,
@@ -154,7 +156,11 @@ pub fn run(args: &RouteArgs) -> Result<()> {
         let (result, _) = ws
             .run(args.planner, &query, seed)
             .map_err(|e| PlanError::InvalidInput(format!("{e:#}")))?;
-        Ok(result?.waypoints)
+        let plan = result?;
+        if plan.stats.cut_short {
+            return Err(PlanError::TimedOut);
+        }
+        Ok(plan.waypoints)
     };
     let t0 = Instant::now();
     let plan = plan_route(&ws.grid, &route, &options, Some(&mut legs))

@@ -238,7 +238,7 @@ pub enum PlanError {
 
 /// What one plan may allocate for its per-cell working tables unless configured otherwise
 /// (`max_plan_memory_mb`): 2 GiB, which every planner stays within on a 4000 x 4000 map (16 M
-/// cells; the largest, any_angle, needs 72 B per cell there, 1.2 GB). The map itself (the
+/// cells; the largest, any_angle, needs 96 B per cell there, 1.5 GB). The map itself (the
 /// grid, its clearance transform, the planning grid) is the node's and is not counted.
 pub const DEFAULT_MAX_PLAN_BYTES: u64 = 2 << 30;
 
