@@ -9,8 +9,10 @@
 //!   error types, and [`solve`], which validates, runs, verifies and measures;
 //! - [`driver`]: the one loop of every population planner, which ends each run with a typed
 //!   [`planner::Termination`];
-//! - [`seed`]: the potential-field-else-A* path the field-guided planners start from;
-//! - the planner families: [`search`] (A*, any-angle), [`field`] (the potential fields), [`swarm`]
+//! - [`field`]: the potential fields, the wavefront and the virtual-traction escape;
+//! - [`seed`]: the potential-field-else-A* path the field-guided planners start from, and the
+//!   planners `apf`/`eapf` that return it;
+//! - the other planner families: [`search`] (A*, any-angle, cost-aware Theta*), [`swarm`]
 //!   (the patrol car paper's cat and particle swarms), [`colony`] (the substation paper's ant
 //!   colonies), [`genetic`] (the genetic algorithm paper's IMGA and a plain GA);
 //! - [`planner_name`]: the one list of planners, by the names users select them by;

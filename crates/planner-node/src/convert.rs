@@ -203,6 +203,9 @@ pub fn diagnostics(
                     format!("{:.4}", plan.metrics.corridor_half_width_m),
                 ),
                 kv("cut_short", plan.stats.cut_short.to_string()),
+                // What the planner said about this plan (a moved start, a cut-short search,
+                // a seed returned unchanged), one per line.
+                kv("notes", plan.stats.notes.join("\n")),
                 kv(
                     "termination",
                     plan.stats
@@ -301,6 +304,46 @@ mod tests {
                 orientation: q,
             },
         }
+    }
+
+    /// /diagnostics carries what the planner said about the plan (here a moved start and a
+    /// cut-short search), one note per line, beside the metrics.
+    #[test]
+    fn diagnostics_carry_the_plans_notes() {
+        use planner_core::grid::metrics::PathMetrics;
+        use planner_core::planner::PlanStats;
+        let notes = vec![
+            "the start (1.050, 0.250) is not free: the plan uses the nearest free cell's centre"
+                .to_string(),
+            "the exact search was cut short (deadline)".to_string(),
+        ];
+        let plan = Plan {
+            planner: PlannerName::AnyAngle,
+            waypoints: vec![Point2::new(0.0, 0.0), Point2::new(1.0, 0.0)],
+            metrics: PathMetrics {
+                length_m: 1.0,
+                turning_rad: 0.0,
+                turns: 0,
+                min_clearance_m: 0.5,
+                mean_clearance_m: 0.5,
+                path_cost: 0.0,
+                corridor_half_width_m: 0.5,
+                collision_free: true,
+            },
+            stats: PlanStats {
+                notes: notes.clone(),
+                cut_short: true,
+                ..PlanStats::default()
+            },
+            pareto: Vec::new(),
+            goal: Point2::new(1.0, 0.0),
+            resolution: 0.05,
+        };
+        let msg = diagnostics(Header::default(), plan.planner, 3, Ok(&plan), 1.0);
+        let values = &msg.status[0].values;
+        let value = |k: &str| values.iter().find(|v| v.key == k).map(|v| v.value.clone());
+        assert_eq!(value("notes"), Some(notes.join("\n")));
+        assert_eq!(value("cut_short").as_deref(), Some("true"));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The lifecycle services and topic of a managed node, on the node's own names (`~/change_state`,
 //! `~/get_state`, `~/get_available_states`, `~/get_available_transitions`,
-//! `~/get_transition_graph`, `~/transition_event`), as rclcpp_lifecycle offers them.
+//! `~/get_transition_graph`, `~/transition_event`), as rclcpp_lifecycle offers them, and the
+//! bond heartbeat Nav2's lifecycle manager watches.
 //!
 //! The state machine itself is [`crate::lifecycle`]; this module is its ROS face.
 

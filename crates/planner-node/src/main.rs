@@ -24,7 +24,8 @@ use planner_io::parameters::{load_parameter_file_for, ParameterFile};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    // The node's own records (and the planners' notes) also go to /rosout once the node exists.
+    // The node's own records (and, at debug level, the planners' notes; /diagnostics carries
+    // them always) also go to /rosout once the node exists.
     ros_edge::logging::init(&["patrol_planner", "planner_core", "planner_io"]);
     let naming = match ros_edge::naming::Naming::from_env("patrol_planner") {
         Ok(n) => n,

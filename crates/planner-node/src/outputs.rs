@@ -5,7 +5,7 @@ use crate::convert;
 use crate::result::Outcome;
 use crate::state::Shared;
 use chassis::Twist2;
-use log::{info, warn};
+use log::{debug, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{Twist, TwistStamped, Vector3};
 use patrol_msgs::nav_msgs::Path;
@@ -83,10 +83,17 @@ impl Outputs {
         let result = outcome.result.as_ref().map(|(p, _)| p);
         // The one place every answer is logged (terminal and /rosout) with its reason.
         match result {
-            Ok(plan) => info!(
-                "{planner}: {:.2} m, {:.2} rad of turning in {elapsed_ms:.1} ms (seed {seed})",
-                plan.metrics.length_m, plan.metrics.turning_rad
-            ),
+            Ok(plan) => {
+                info!(
+                    "{planner}: {:.2} m, {:.2} rad of turning in {elapsed_ms:.1} ms (seed {seed})",
+                    plan.metrics.length_m, plan.metrics.turning_rad
+                );
+                // Every plan has a few (the swarm's encoding and corridor...): on /diagnostics
+                // always, in the log at debug level.
+                for note in &plan.stats.notes {
+                    debug!("{planner}: {note}");
+                }
+            }
             Err(f) => warn!("{planner}: {}: {} (seed {seed})", f.code, f.message),
         }
         let msg = convert::diagnostics(self.header(s), planner, seed, result, elapsed_ms);
