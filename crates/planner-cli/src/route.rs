@@ -144,9 +144,9 @@ pub fn run(args: &RouteArgs) -> Result<()> {
         ..RouteOptions::default()
     };
     // Each leg through the same path as `plan` (the config's time budget, smoothing and seed),
-    // exactly from point to point. A leg the time budget cut short counts as timed out: the
-    // route then takes the matrix's string-pulled path and its notes say so, rather than take a
-    // path its planner did not finish without a word.
+    // exactly from point to point. A leg the time budget cut short keeps its planner's best
+    // path so far (any_angle's: the string-pulled A* path), and the route's notes say which.
+    let mut cut_short = Vec::new();
     let mut legs = |from: Point2, to: Point2| -> Result<Vec<Point2>, PlanError> {
         let query = Query {
             start: from,
@@ -158,13 +158,18 @@ pub fn run(args: &RouteArgs) -> Result<()> {
             .map_err(|e| PlanError::InvalidInput(format!("{e:#}")))?;
         let plan = result?;
         if plan.stats.cut_short {
-            return Err(PlanError::TimedOut);
+            cut_short.push(format!(
+                "leg ({:.2}, {:.2}) - ({:.2}, {:.2}): {} was cut short by the time budget; its \
+                 best path so far is used",
+                from.x, from.y, to.x, to.y, args.planner
+            ));
         }
         Ok(plan.waypoints)
     };
     let t0 = Instant::now();
-    let plan = plan_route(&ws.grid, &route, &options, Some(&mut legs))
+    let mut plan = plan_route(&ws.grid, &route, &options, Some(&mut legs))
         .with_context(|| format!("planning the route of {}", points.display()))?;
+    plan.notes.extend(cut_short);
     let out = RouteOutput {
         planner: args.planner,
         time_ms: t0.elapsed().as_secs_f64() * 1e3,

@@ -300,6 +300,17 @@ mod tests {
             assert!(!boxes_free(&open, a, b), "{a:?} {b:?}");
             assert!(!line_of_sight(&open, a, b), "{a:?} {b:?}");
         }
+        // A coarse box holding a blocked cell the segment passes far from: the fine boxes of
+        // that stretch clear it, so line of sight needs no cell-by-cell walk.
+        // (Five coarse pieces; the second spans cells (61, 9) to (120, 16).)
+        let (a, b) = (Point2::new(2.5, 2.5), Point2::new(297.5, 37.5));
+        let long = crate::test_support::grid_with((300, 40), 1.0, 0.0, |x, y| x == 118 && y == 9);
+        assert!(
+            !long.box_is_free(60, 8, 121, 17),
+            "the coarse box holds the cell"
+        );
+        assert!(boxes_free(&long, a, b));
+        assert!(supercover(a, b, |c| long.is_free(c)));
         // On a sparse map it clears many long segments (else it would buy nothing).
         let sparse = scattered(5, 0.002);
         let mut r = crate::test_support::rng(6);
@@ -325,6 +336,20 @@ mod tests {
             ax in coordinate(), ay in coordinate(), bx in coordinate(), by in coordinate(),
         ) {
             let grid = scattered(seed, density);
+            let (a, b) = (Point2::new(ax, ay), Point2::new(bx, by));
+            if boxes_free(&grid, a, b) {
+                prop_assert!(supercover(a, b, |c| grid.is_free(c)));
+            }
+        }
+
+        /// The same on a long map, where segments span several coarse boxes (64 cells) and a
+        /// coarse box with a blocked cell is cut into fine ones from the middle of the segment.
+        #[test]
+        fn the_box_test_never_clears_a_blocked_segment_across_coarse_boxes(
+            seed in any::<u64>(), density in 0.0f64..0.002,
+            ax in 0.0f64..300.0, ay in 0.0f64..40.0, bx in 0.0f64..300.0, by in 0.0f64..40.0,
+        ) {
+            let grid = crate::test_support::random_grid(seed, 300, 40, density).0;
             let (a, b) = (Point2::new(ax, ay), Point2::new(bx, by));
             if boxes_free(&grid, a, b) {
                 prop_assert!(supercover(a, b, |c| grid.is_free(c)));
