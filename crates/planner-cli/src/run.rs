@@ -7,8 +7,9 @@ use planner_core::config::PlannerConfig;
 use planner_core::geometry::Point2;
 use planner_core::grid::inflation::PlanningGrid;
 use planner_core::grid::GridMap;
-use planner_core::planner::Termination;
-use planner_core::planner::{Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query};
+use planner_core::planner::{
+    Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query, Termination,
+};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use serde::Serialize;

@@ -71,9 +71,9 @@ impl PulledBest {
     }
 
     /// One step of the local search on an answer (the colonies' and IMGA's `local_search`): a
-    /// reroute of `answer` ([`crate::genetic::operators::reroute`], at most `budget` median insertions) is
-    /// offered, and replaces `answer` when it straightens into a better one. Returns whether it
-    /// did.
+    /// reroute of `answer` ([`crate::genetic::operators::reroute`], at most `budget` median
+    /// insertions) is offered, and replaces `answer` when it straightens into a better one.
+    /// Returns whether it did.
     pub fn offer_reroute(
         &mut self,
         grid: &PlanningGrid,

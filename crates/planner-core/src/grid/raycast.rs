@@ -116,29 +116,47 @@ fn boxes_free(grid: &PlanningGrid, a: Point2, b: Point2) -> bool {
             from.y.max(to.y) + 1,
         )
     };
-    // The pieces of `[t0, t1]` (ends' cells `from`, `to`) of about `cells` cells each.
-    let pieces_free = |t0: f64, t1: f64, from: Cell, cells: f64| {
-        let n = (span * (t1 - t0) / cells).ceil().max(1.0) as usize;
-        let mut from = from;
-        (1..=n).all(|k| {
-            let to = if k == n {
-                cell_at(t1)
-            } else {
-                cell_at(t0 + (t1 - t0) * k as f64 / n as f64)
-            };
-            let ok = free(from, to);
-            from = to;
-            ok
-        })
+    // Coarse pieces; one that is not free, again in fine pieces.
+    pieces(
+        span,
+        (0.0, 1.0),
+        Cell::containing(a),
+        COARSE_BOX_CELLS,
+        &cell_at,
+        |t, from, to| {
+            free(from, to)
+                || pieces(span, t, from, BOX_CELLS, &cell_at, |_, from, to| {
+                    free(from, to)
+                })
+        },
+    )
+}
+
+/// Whether every piece of the stretch `t` (segment parameters; the segment `span` cells long)
+/// passes `ok(its stretch, its first cell, its last cell)`: pieces of about `cells` cells, the
+/// first starting in `from`, each ending where the next starts, the last in `cell_at(t.1)`.
+fn pieces(
+    span: f64,
+    (t0, t1): (f64, f64),
+    from: Cell,
+    cells: f64,
+    cell_at: &impl Fn(f64) -> Cell,
+    mut ok: impl FnMut((f64, f64), Cell, Cell) -> bool,
+) -> bool {
+    let n = (span * (t1 - t0) / cells).ceil().max(1.0) as usize;
+    let at = |k: usize| {
+        if k == n {
+            t1
+        } else {
+            t0 + (t1 - t0) * k as f64 / n as f64
+        }
     };
-    let coarse = (span / COARSE_BOX_CELLS).ceil() as usize;
-    let mut from = Cell::containing(a);
-    (1..=coarse).all(|i| {
-        let (t0, t1) = ((i - 1) as f64 / coarse as f64, i as f64 / coarse as f64);
-        let to = cell_at(t1);
-        let ok = free(from, to) || pieces_free(t0, t1, from, BOX_CELLS);
+    let mut from = from;
+    (1..=n).all(|k| {
+        let to = cell_at(at(k));
+        let pass = ok((at(k - 1), at(k)), from, to);
         from = to;
-        ok
+        pass
     })
 }
 

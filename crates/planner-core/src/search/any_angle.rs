@@ -95,13 +95,7 @@ impl Planner for AnyAngle {
             .insert("candidates".into(), (nodes.len() - 2) as f64);
         let result = match visibility_astar(grid, &nodes, bound, ctx, &mut stats) {
             Ok(result) => result,
-            Err(PlanError::TimedOut) => {
-                return Ok(cut_short(bound_path, stats, Interrupt::Deadline))
-            }
-            Err(PlanError::Cancelled) => {
-                return Ok(cut_short(bound_path, stats, Interrupt::Cancelled))
-            }
-            Err(e) => return Err(e),
+            Err(why) => return Ok(cut_short(bound_path, stats, why)),
         };
         let waypoints = match result {
             Some(path) if path_length(&path) < bound => path,
@@ -174,12 +168,8 @@ impl Vertex {
 }
 
 /// The convex corners of the blocked region (lattice points with exactly one blocked cell among
-/// the four around them), each nudged [`NUDGE`] cells into the diagonally opposite free cell.
-pub fn corner_vertices(grid: &PlanningGrid) -> impl Iterator<Item = Point2> + '_ {
-    corners(grid).map(|v| v.at)
-}
-
-/// [`corner_vertices`] with the quadrant of each corner's blocked cell.
+/// the four around them), each nudged [`NUDGE`] cells into the diagonally opposite free cell,
+/// with the quadrant of its blocked cell.
 fn corners(grid: &PlanningGrid) -> impl Iterator<Item = Vertex> + '_ {
     let (w, h) = (grid.width() as i32, grid.height() as i32);
     (1..h)
@@ -230,14 +220,14 @@ impl PartialOrd for Open {
 
 /// A* from vertex 0 to vertex 1 over the complete graph of `vertices`, edges existing where there
 /// is line of sight, pruning anything that cannot beat `bound` or is not tangent at a corner
-/// ([`Vertex::tangent`]).
+/// ([`Vertex::tangent`]). `None` when no path beats the bound; the interrupt, if one came.
 fn visibility_astar(
     grid: &PlanningGrid,
     vertices: &[Vertex],
     bound: f64,
     ctx: &PlanContext<'_>,
     stats: &mut PlanStats,
-) -> Result<Option<Vec<Point2>>, PlanError> {
+) -> Result<Option<Vec<Point2>>, Interrupt> {
     let at = |i: usize| vertices[i].at;
     let n = vertices.len();
     let goal = at(1);
@@ -249,17 +239,17 @@ fn visibility_astar(
     g[0] = 0.0;
     open.push(Open { f: h[0], node: 0 });
     let mut los_checks = 0u64;
-    while let Some(Open { node: u, .. }) = open.pop() {
+    let found = loop {
+        let Some(Open { node: u, .. }) = open.pop() else {
+            break Ok(None);
+        };
         if closed[u] {
             continue;
         }
         closed[u] = true;
         stats.iterations += 1;
-        if let Err(interrupted) = ctx.check() {
-            stats
-                .counters
-                .insert("los_checks".into(), los_checks as f64);
-            return Err(interrupted);
+        if let Some(why) = (ctx.interrupt)() {
+            break Err(why);
         }
         if u == 1 {
             let mut path = vec![at(1)];
@@ -269,10 +259,7 @@ fn visibility_astar(
                 path.push(at(k));
             }
             path.reverse();
-            stats
-                .counters
-                .insert("los_checks".into(), los_checks as f64);
-            return Ok(Some(path));
+            break Ok(Some(path));
         }
         for v in 0..n {
             if closed[v] {
@@ -295,11 +282,11 @@ fn visibility_astar(
                 });
             }
         }
-    }
+    };
     stats
         .counters
         .insert("los_checks".into(), los_checks as f64);
-    Ok(None)
+    found
 }
 
 #[cfg(test)]
