@@ -1,9 +1,11 @@
 """Patrols from outside, as nav2_simple_commander's followWaypoints sends them: Nav2's
 FollowWaypoints action on the node, which orders the waypoints (fastest first), plans each leg,
 drives the simulated car there, pauses, and loops. The node and chassis_bridge on a domain of
-their own, on the bundled map, with the bundled patrol (config/routes/datacenter_patrol.yaml, ten
-inspection points given in a poor order) plus one point inside a cabinet, twice
-(number_of_loops 1). Checked: every reachable point is reached (from /odom: within the
+their own, on the bundled map, with the first five points of the bundled patrol
+(config/routes/datacenter_patrol.yaml, inspection points given in a poor order) plus one point
+inside a cabinet, twice (number_of_loops 1). Five, not all ten: the car drives in real time, and
+the ten took 7.5 minutes, the longest wait of the test suite; five still leave the optimiser an
+order to change (4, 1, 3, 0, 2). Checked: every reachable point is reached (from /odom: within the
 follower's tolerance, stopped, facing its heading) in one order repeated on both passes, that
 order is the optimiser's, not the given one; the point inside the cabinet is reported missed on
 each pass and the others are still visited; /cmd_vel never exceeds 0.6 m/s and 0.4 rad/s;
@@ -27,8 +29,9 @@ from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, st
 
 MAP = ROOT / "config" / "maps" / "datacenter_100.yaml"
 ROUTE = yaml.safe_load((ROOT / "config" / "routes" / "datacenter_patrol.yaml").read_text())
-# The bundled points in the file's order, then one inside a cabinet (GOAL_OCCUPIED).
-WAYPOINTS = [(p["x"], p["y"], p["yaw"]) for p in ROUTE["points"]] + [(3.1, 1.9, 0.0)]
+# The bundled patrol's first five points in the file's order, then one inside a cabinet
+# (GOAL_OCCUPIED).
+WAYPOINTS = [(p["x"], p["y"], p["yaw"]) for p in ROUTE["points"][:5]] + [(3.1, 1.9, 0.0)]
 BLOCKED = len(WAYPOINTS) - 1
 REACHABLE = [i for i in range(len(WAYPOINTS)) if i != BLOCKED]
 PAUSE = 1.0  # waypoint_pause_duration (s)

@@ -81,6 +81,11 @@ enum Command {
         map: PathBuf,
         #[arg(long)]
         scen: PathBuf,
+        /// Check at most N scenarios, evenly spaced through the file (a `.scen` lists its
+        /// problems from shortest to longest, so every length bucket keeps its share); all of
+        /// them when unset.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        sample: Option<u32>,
     },
     /// Run each planner R times (seeds 0..R-1) on every scenario of the given bench scenario files
     /// and write a table: one row per map x scenario x planner, lengths also as ratios to the
@@ -138,8 +143,8 @@ fn run(cli: Cli) -> Result<()> {
             svg.as_deref(),
             r.common.config.as_deref(),
         ),
-        Command::Movingai { map, scen } => {
-            let failed = movingai::run(&map, &scen)?;
+        Command::Movingai { map, scen, sample } => {
+            let failed = movingai::run(&map, &scen, sample.map(|n| n as usize))?;
             std::process::exit(if failed > 0 { 1 } else { 0 })
         }
         Command::Bench(args) => bench::run(&args),
