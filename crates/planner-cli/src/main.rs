@@ -81,9 +81,9 @@ enum Command {
         map: PathBuf,
         #[arg(long)]
         scen: PathBuf,
-        /// Check at most N scenarios, evenly spaced through the file (a `.scen` lists its
-        /// problems from shortest to longest, so every length bucket keeps its share); all of
-        /// them when unset.
+        /// Check at most N scenarios, evenly spaced from the shortest optimal length to the
+        /// longest (so every length bucket keeps its share, both ends included); all of them
+        /// when unset.
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
         sample: Option<u32>,
     },
