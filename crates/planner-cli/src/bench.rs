@@ -108,7 +108,7 @@ pub struct Row {
     /// Median over runs of the hypervolume of the planner's final front (planners that return
     /// one): see [`HV_REFERENCE`].
     pub hypervolume_median: Option<f64>,
-    /// The first failure's reason, when a run failed.
+    /// The first failure's Nav2 code and reason (`NO_VALID_PATH (208): ...`), when a run failed.
     pub failure: Option<String>,
 }
 
@@ -298,7 +298,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             *ends.entry(end).or_default() += 1;
                         }
                         Err(e) => {
-                            failure.get_or_insert_with(|| e.to_string());
+                            failure.get_or_insert_with(|| crate::run::failure_line(&e));
                         }
                     }
                     bar.inc(1);

@@ -58,6 +58,8 @@ struct Request {
 enum Command {
     /// Plan one path and print it as one JSON object (planner, seed, length_m, turning_rad, turns,
     /// min_clearance_m, collision_free, time_ms, reference_length_m, termination, waypoints, ...).
+    /// When the planner cannot answer: an object with error_code, error_name and error_msg (Nav2
+    /// ComputePathToPose's codes, e.g. 206 GOAL_OCCUPIED, 208 NO_VALID_PATH) and exit status 1.
     Plan {
         #[command(flatten)]
         request: Request,

@@ -2,7 +2,7 @@
 //! and `bench` share.
 
 use crate::render::{Drawing, Layer};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::Point2;
 use planner_core::grid::inflation::PlanningGrid;
@@ -11,6 +11,7 @@ use planner_core::planner::{
     Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query, Termination,
 };
 use planner_core::{registry, PlannerName};
+use planner_io::result_code::ResultCode;
 use rand::SeedableRng;
 use serde::Serialize;
 use std::path::Path;
@@ -140,6 +141,23 @@ struct PlanOutput<'a> {
     waypoints: Vec<[f64; 2]>,
 }
 
+/// What `plan` prints when the planner cannot answer: Nav2's ComputePathToPose result fields.
+#[derive(Serialize)]
+struct FailureOutput {
+    planner: PlannerName,
+    seed: u64,
+    error_code: u16,
+    error_name: &'static str,
+    error_msg: String,
+}
+
+/// A failed plan as one line: its Nav2 code, number and reason, e.g.
+/// `GOAL_OCCUPIED (206): goal (5.5, 5.5) is in an obstacle ...`.
+pub fn failure_line(e: &PlanError) -> String {
+    let code = ResultCode::from(e);
+    format!("{} ({}): {e}", code.name(), code.number())
+}
+
 pub fn plan_command(
     map_path: &Path,
     start: [f64; 2],
@@ -155,8 +173,26 @@ pub fn plan_command(
     let ws = Workspace::load(map_path, config)?;
     let query = ws.query(start, goal);
     let (result, elapsed) = ws.run(planner, &query, seed)?;
-    let plan =
-        result.with_context(|| format!("{planner} could not plan from {start:?} to {goal:?}"))?;
+    let plan = match result {
+        Ok(plan) => plan,
+        Err(e) => {
+            // As a Nav2 action result says it: the code and the reason, also on stdout as JSON,
+            // so a script reading the plan's JSON reads the failure's too.
+            let code = ResultCode::from(&e);
+            let out = FailureOutput {
+                planner,
+                seed,
+                error_code: code.number(),
+                error_name: code.name(),
+                error_msg: e.to_string(),
+            };
+            println!("{}", serde_json::to_string(&out)?);
+            bail!(
+                "{planner} could not plan from {start:?} to {goal:?}: {}",
+                failure_line(&e)
+            );
+        }
+    };
     let reference = ws.reference(&query)?;
     let out = PlanOutput {
         planner: plan.planner,
@@ -244,7 +280,7 @@ pub fn render_command(
                 );
                 drawing.add(Layer::path(name.as_str(), &plan.waypoints));
             }
-            Err(e) => eprintln!("{name}: {e}"),
+            Err(e) => eprintln!("{name}: {}", failure_line(&e)),
         }
     }
     drawing.add(Layer::endpoints(query.start, query.goal));

@@ -103,6 +103,39 @@ fn plan_prints_the_documented_json() {
     assert!(picture.starts_with("<svg") && picture.contains("<polyline"));
 }
 
+/// A plan that cannot be made says why as Nav2 would: the code, its number and the reason, as
+/// JSON on stdout and in the error line, with a failing exit.
+#[test]
+fn plan_failure_carries_the_nav2_code() {
+    let map = shared("bench/datacenter_100.yaml");
+    for (goal, code, name) in [
+        ("5.5,5.5", 206, "GOAL_OCCUPIED"),
+        ("500,5", 204, "GOAL_OUTSIDE_MAP"),
+    ] {
+        let (ok, stdout, stderr) = patrol_plan(&[
+            "plan",
+            "--map",
+            map.to_str().unwrap(),
+            "--start",
+            "0.1,0.1",
+            "--goal",
+            goal,
+            "--planner",
+            "astar",
+        ]);
+        assert!(!ok, "{goal}: {stdout}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(v["error_code"], code, "{goal}: {stdout}");
+        assert_eq!(v["error_name"], name, "{goal}: {stdout}");
+        assert_eq!(v["planner"], "astar");
+        assert!(
+            v["error_msg"].as_str().unwrap().contains("goal"),
+            "{stdout}"
+        );
+        assert!(stderr.contains(&format!("{name} ({code})")), "{stderr}");
+    }
+}
+
 /// A multi-objective planner's picture carries its Pareto front beside the map.
 #[test]
 fn plan_svg_draws_the_pareto_front_of_mocmcso() {

@@ -1,7 +1,9 @@
 //! File loading for patrol-planner: the thin I/O edge around planner-core's parsers, shared by
-//! the CLI and the node so both read maps, scenarios and parameters the same way.
+//! the CLI and the node so both read maps, scenarios and parameters the same way, and name a
+//! failed plan the same way ([`result_code`]).
 
 pub mod parameters;
+pub mod result_code;
 
 use planner_core::config::PlannerConfig;
 use planner_core::grid::parsers::map_server::MapYaml;
