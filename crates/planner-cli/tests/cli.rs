@@ -108,26 +108,18 @@ fn plan_prints_the_documented_json() {
 #[test]
 fn plan_failure_carries_the_nav2_code() {
     let map = shared("bench/datacenter_100.yaml");
+    let m = map.to_str().unwrap();
     for (goal, code, name) in [
         ("5.5,5.5", 206, "GOAL_OCCUPIED"),
         ("500,5", 204, "GOAL_OUTSIDE_MAP"),
     ] {
-        let (ok, stdout, stderr) = patrol_plan(&[
-            "plan",
-            "--map",
-            map.to_str().unwrap(),
-            "--start",
-            "0.1,0.1",
-            "--goal",
-            goal,
-            "--planner",
-            "astar",
-        ]);
+        let (ok, stdout, stderr) =
+            patrol_plan(&["plan", "--map", m, "--start", "0.1,0.1", "--goal", goal]);
         assert!(!ok, "{goal}: {stdout}");
         let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
         assert_eq!(v["error_code"], code, "{goal}: {stdout}");
         assert_eq!(v["error_name"], name, "{goal}: {stdout}");
-        assert_eq!(v["planner"], "astar");
+        assert_eq!(v["planner"], "mocmcso");
         assert!(
             v["error_msg"].as_str().unwrap().contains("goal"),
             "{stdout}"
