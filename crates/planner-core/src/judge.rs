@@ -8,11 +8,13 @@
 //! 0 of 100, imga 15 of 100 better than the seed). A staircase a little longer than the seed's
 //! can straighten into a shorter or smoother answer; judging by the straightened path finds it.
 
-use crate::geometry::{Cell, Point2};
+use crate::geometry::{wrap_angle, Cell, Point2};
+#[cfg(doc)]
 use crate::grid::metrics::{path_length, total_turning};
-use crate::grid::smoothing::delete_redundant;
+use crate::grid::smoothing::for_each_kept;
 use crate::grid::PlanningGrid;
-use crate::planner::improves_on;
+use crate::planner::{cannot_improve_on, improves_on};
+use std::ops::ControlFlow;
 
 /// The most an 8-connected shortest staircase is longer than the straight segment between its
 /// ends: octile over Euclidean distance, largest at 22.5 degrees (cos + (sqrt 2 - 1) sin). A
@@ -24,9 +26,47 @@ pub const STAIRCASE_STRETCH: f64 = 1.082_392_200_292_394;
 /// `solve` first moves the ends to the exact start and goal points, which can change what the
 /// delete operation keeps near them, so this is the answer's measure up to those two ends.
 pub fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
+    pulled_unless_no_better(grid, cells, None)
+        .expect("with nothing to beat the walk runs to the end")
+}
+
+/// [`pulled`], or `None` as soon as the straightened prefix shows the path cannot improve on
+/// `best` ([`cannot_improve_on`]): its length so far plus the straight distance left, or its
+/// turning so far, is already too much. The sums run in [`path_length`]'s and
+/// [`total_turning`]'s order, so a full walk gives their bits exactly.
+fn pulled_unless_no_better(
+    grid: &PlanningGrid,
+    cells: &[Cell],
+    best: Option<(f64, f64)>,
+) -> Option<(f64, f64)> {
     let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
-    let pulled = delete_redundant(grid, &pts);
-    (path_length(&pulled), total_turning(&pulled))
+    let Some(&goal) = pts.last() else {
+        return Some((-0.0, -0.0));
+    };
+    // From -0.0, as `Iterator::sum` starts: a path with no turn measures the same bits.
+    let (mut length, mut turning) = (-0.0, -0.0);
+    let mut previous: Option<Point2> = None;
+    let mut heading: Option<f64> = None;
+    let walk = for_each_kept(grid, &pts, |p| {
+        if let Some(q) = previous {
+            let d = p - q;
+            length += d.norm();
+            if d.norm_squared() > 0.0 {
+                let h = d.y.atan2(d.x);
+                if let Some(before) = heading.replace(h) {
+                    turning += wrap_angle(h - before).abs();
+                }
+            }
+        }
+        previous = Some(p);
+        match best {
+            Some(best) if cannot_improve_on(best, length + (goal - p).norm(), turning) => {
+                ControlFlow::Break(())
+            }
+            _ => ControlFlow::Continue(()),
+        }
+    });
+    walk.is_continue().then_some((length, turning))
 }
 
 /// The best answer so far by [`improves_on`]: a candidate replaces it only when its straightened
@@ -62,7 +102,9 @@ impl PulledBest {
     /// Straightens `cells` and makes it the best answer when it improves on the current one (or
     /// there is none yet). Returns whether it did.
     pub fn offer(&mut self, grid: &PlanningGrid, cells: &[Cell]) -> bool {
-        let candidate = pulled(grid, cells);
+        let Some(candidate) = pulled_unless_no_better(grid, cells, self.best) else {
+            return false;
+        };
         let better = self.best.is_none_or(|best| improves_on(best, candidate));
         if better {
             self.best = Some(candidate);
@@ -95,7 +137,57 @@ impl PulledBest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_support::grid_from_rows;
+    use crate::grid::metrics::{path_length, total_turning};
+    use crate::grid::smoothing::delete_redundant;
+    use crate::planner::PlanContext;
+    use crate::search::astar::astar_cells;
+    use crate::test_support::{grid_from_rows, random_grid, rng};
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+        /// The pulled measure is the delete operation's path measured by `path_length` and
+        /// `total_turning`, bit for bit; and stopping the walk early never changes an offer's
+        /// outcome: against bests around the candidate's own measure (so that the early stop
+        /// is taken on many of them), the stopped walk accepts exactly what the whole walk does.
+        #[test]
+        fn stopping_early_never_changes_a_verdict(
+            seed in any::<u64>(),
+            density in 0.0f64..0.3,
+            scale_len in 0.97f64..1.03,
+            scale_turn in 0.5f64..1.5,
+        ) {
+            let (grid, start, goal) = random_grid(seed, 40, 30, density);
+            let mut r = rng(seed);
+            let Ok((cells, _)) = astar_cells(&grid, start, goal, &PlanContext::never_interrupted(&mut r)) else {
+                return Ok(());
+            };
+            let mut candidates = vec![cells.clone()];
+            for _ in 0..6 {
+                if let Some(moved) = crate::genetic::operators::reroute(&grid, &cells, 400, &mut r) {
+                    candidates.push(moved);
+                }
+            }
+            for candidate in &candidates {
+                let pts: Vec<Point2> = candidate.iter().map(|c| c.center()).collect();
+                let straight = delete_redundant(&grid, &pts);
+                let whole = pulled(&grid, candidate);
+                prop_assert_eq!(whole.0.to_bits(), path_length(&straight).to_bits());
+                prop_assert_eq!(whole.1.to_bits(), total_turning(&straight).to_bits());
+                let mut bests: Vec<(f64, f64)> = candidates.iter().map(|c| pulled(&grid, c)).collect();
+                bests.push((whole.0 * scale_len, whole.1 * scale_turn));
+                bests.push((whole.0 * scale_len, whole.1));
+                bests.push((whole.0, whole.1 * scale_turn));
+                for best in bests {
+                    let stopped = pulled_unless_no_better(&grid, candidate, Some(best));
+                    prop_assert_eq!(stopped.is_some_and(|m| improves_on(best, m)), improves_on(best, whole));
+                    if let Some(m) = stopped {
+                        prop_assert_eq!(m, whole);
+                    }
+                }
+            }
+        }
+    }
 
     /// The cells of a path through a picture, in the order given (x right, y up).
     fn cells(points: &[(i32, i32)]) -> Vec<Cell> {

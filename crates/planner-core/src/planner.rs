@@ -452,10 +452,29 @@ fn note_moved_ends(
 /// 1e-9 absorbs rounding). The answer against its seed (`solve`), and a straightened ant's walk
 /// or GA individual against the best so far (the pulled judge, [`crate::judge`]).
 pub fn improves_on((seed_len, seed_turn): (f64, f64), (len, turn): (f64, f64)) -> bool {
-    let tol = |v: f64| 1e-9 * v.abs().max(1.0);
-    let no_worse = len <= seed_len + tol(seed_len) && turn <= seed_turn + tol(seed_turn);
-    let better = len < seed_len - tol(seed_len) || turn < seed_turn - tol(seed_turn);
+    let no_worse = len <= seed_len + improvement_tolerance(seed_len)
+        && turn <= seed_turn + improvement_tolerance(seed_turn);
+    let better = len < seed_len - improvement_tolerance(seed_len)
+        || turn < seed_turn - improvement_tolerance(seed_turn);
     no_worse && better
+}
+
+/// The rounding [`improves_on`] forgives around a measure `v`.
+fn improvement_tolerance(v: f64) -> f64 {
+    1e-9 * v.abs().max(1.0)
+}
+
+/// Whether no answer whose length is at least `len_at_least` (up to rounding in summing it: the
+/// bound is given another tolerance) or whose turning is at least `turn_at_least` (a prefix of
+/// the same sum, so a true bound) can improve on `best` by [`improves_on`]. Lets the pulled
+/// judge stop straightening a candidate part way.
+pub fn cannot_improve_on(
+    (best_len, best_turn): (f64, f64),
+    len_at_least: f64,
+    turn_at_least: f64,
+) -> bool {
+    len_at_least > best_len + 2.0 * improvement_tolerance(best_len)
+        || turn_at_least > best_turn + improvement_tolerance(best_turn)
 }
 
 /// Checks a world-frame request against the grid and turns it into a [`Problem`].

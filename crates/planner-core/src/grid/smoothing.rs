@@ -9,22 +9,46 @@
 use crate::geometry::Point2;
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::raycast::{line_of_sight, supercover};
+use std::ops::ControlFlow;
 
 /// Removes every node whose kept predecessor sees its successor. The first and last points stay.
 pub fn delete_redundant(grid: &PlanningGrid, points: &[Point2]) -> Vec<Point2> {
-    if points.len() <= 2 {
-        return points.to_vec();
-    }
-    let mut out = vec![points[0]];
-    let mut anchor = points[0];
-    for k in 1..points.len() - 1 {
-        if !line_of_sight(grid, anchor, points[k + 1]) {
-            out.push(points[k]);
-            anchor = points[k];
+    let mut out = Vec::new();
+    let ControlFlow::<()>::Continue(()) = for_each_kept(grid, points, |p| {
+        out.push(p);
+        ControlFlow::Continue(())
+    }) else {
+        unreachable!("the collector never stops the walk")
+    };
+    out
+}
+
+/// [`delete_redundant`], handing each kept point to `keep` as soon as it is known, in order, and
+/// stopping as soon as `keep` breaks. The pulled judge ([`crate::judge`]) straightens a
+/// candidate only to learn whether it beats the best answer; most do not, and a prefix of the
+/// straightened path already longer or more turning than the best says so before the rest of
+/// the path's line-of-sight tests are run.
+pub fn for_each_kept<B>(
+    grid: &PlanningGrid,
+    points: &[Point2],
+    mut keep: impl FnMut(Point2) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    let Some((&first, rest)) = points.split_first() else {
+        return ControlFlow::Continue(());
+    };
+    keep(first)?;
+    let Some((&last, inner)) = rest.split_last() else {
+        return ControlFlow::Continue(());
+    };
+    let mut anchor = first;
+    for (k, &p) in inner.iter().enumerate() {
+        // `rest[k + 1]` is the point after `p`.
+        if !line_of_sight(grid, anchor, rest[k + 1]) {
+            keep(p)?;
+            anchor = p;
         }
     }
-    out.push(points[points.len() - 1]);
-    out
+    keep(last)
 }
 
 /// The delete operation weighing the costmap as cost-aware A* does: from the anchor, a node is
