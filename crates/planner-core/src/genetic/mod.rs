@@ -40,7 +40,7 @@
 pub mod operators;
 
 use crate::driver::{drive, Budget, Population};
-use crate::geometry::{Cell, Point2, NEIGHBOURS_8};
+use crate::geometry::{Cell, Point2};
 use crate::grid::inflation::PlanningGrid;
 use crate::judge::PulledBest;
 use crate::params::{check, check_counts, ParamError, Range};
@@ -276,26 +276,20 @@ pub fn turn_penalty(from: (i32, i32), to: (i32, i32)) -> f64 {
 pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell], with_cost: bool) -> FitnessTerms {
     let res = grid.resolution();
     let length_m = crate::search::astar::cell_path_length(path) * res;
-    let safety = path
-        .iter()
-        .filter(|c| {
-            NEIGHBOURS_8
-                .iter()
-                .any(|&(dx, dy)| !grid.is_free(c.offset(dx, dy)))
+    let safety = path.iter().filter(|&&c| grid.next_to_blocked(c)).count() as f64 * 5.0;
+    let energy = path
+        .windows(3)
+        .map(|w| {
+            turn_penalty(
+                (w[1].x - w[0].x, w[1].y - w[0].y),
+                (w[2].x - w[1].x, w[2].y - w[1].y),
+            )
         })
-        .count() as f64
-        * 5.0;
-    let dirs: Vec<(i32, i32)> = path
-        .windows(2)
-        .map(|w| (w[1].x - w[0].x, w[1].y - w[0].y))
-        .collect();
-    let energy = dirs.windows(2).map(|d| turn_penalty(d[0], d[1])).sum();
+        .sum();
     let cost_m = if with_cost {
+        let cells = grid.cell_reader();
         path.windows(2)
-            .map(|w| {
-                let step = ((w[1].x - w[0].x) as f64).hypot((w[1].y - w[0].y) as f64);
-                step * grid.cost(w[1]) as f64 / 252.0
-            })
+            .map(|w| step_length(w[0], w[1]) * cells.free_and_cost(w[1]).1 as f64 / 252.0)
             .sum::<f64>()
             * res
     } else {
@@ -306,6 +300,16 @@ pub fn fitness_terms(grid: &PlanningGrid, path: &[Cell], with_cost: bool) -> Fit
         safety,
         energy,
         cost_m,
+    }
+}
+
+/// The length (cells) of one step of a chromosome: 1 or the square root of 2 for the
+/// 8-connected steps it is made of (the bits `hypot` gives them), `hypot` for any other.
+fn step_length(a: Cell, b: Cell) -> f64 {
+    match ((b.x - a.x).abs(), (b.y - a.y).abs()) {
+        (1, 0) | (0, 1) => 1.0,
+        (1, 1) => std::f64::consts::SQRT_2,
+        (dx, dy) => (dx as f64).hypot(dy as f64),
     }
 }
 
@@ -623,10 +627,13 @@ impl Population for Generations<'_> {
         let grid = self.problem.grid;
         let p = &self.planner.params;
         let n = self.scored.len();
-        let mut next: Vec<Vec<Cell>> = match self.planner.variant {
+        // Each child with its parent's fitness while it is the parent's copy: a child that no
+        // crossover or mutation changes is not scored again (a fifth of the children or more at
+        // the default rates, and scoring walks every cell of a path).
+        let mut next: Vec<(Option<f64>, Vec<Cell>)> = match self.planner.variant {
             GaVariant::Imga => layered_selection(n)
                 .into_iter()
-                .map(|i| self.scored[i].1.clone())
+                .map(|i| (Some(self.scored[i].0), self.scored[i].1.clone()))
                 .collect(),
             GaVariant::Ga => {
                 let weights: Vec<f64> =
@@ -639,7 +646,8 @@ impl Population for Generations<'_> {
                             r -= w;
                             r < 0.0
                         });
-                        self.scored[k.unwrap_or(n - 1)].1.clone()
+                        let (fitness, path) = &self.scored[k.unwrap_or(n - 1)];
+                        (Some(*fitness), path.clone())
                     })
                     .collect()
             }
@@ -648,15 +656,17 @@ impl Population for Generations<'_> {
         next.shuffle(ctx.rng);
         for pair in next.chunks_exact_mut(2) {
             if ctx.rng.random::<f64>() < p.crossover_rate {
-                if let [a, b] = pair {
-                    crossover(a, b, ctx.rng);
+                if let [(fa, a), (fb, b)] = pair {
+                    if crossover(a, b, ctx.rng) {
+                        (*fa, *fb) = (None, None);
+                    }
                 }
             }
         }
         // Mutation. Each may run a long median insertion on a large map: the deadline is
         // polled before each child, and a generation cut short leaves the population as it was.
         let reroutes = self.planner.variant == GaVariant::Imga && p.mutation == GaMutation::Reroute;
-        for child in next.iter_mut() {
+        for (fitness, child) in next.iter_mut() {
             if ctx.check().is_err() {
                 return self.best.0;
             }
@@ -667,13 +677,18 @@ impl Population for Generations<'_> {
                     mutate(grid, child, self.median, self.insertion_budget, ctx.rng)
                 };
                 match mutated {
-                    Some(m) => *child = m,
+                    Some(m) => (*fitness, *child) = (None, m),
                     None => self.failed_mutations += 1,
                 }
             }
         }
-        self.scored = next.into_iter().map(|c| (self.score(&c), c)).collect();
+        self.scored = next
+            .into_iter()
+            .map(|(fitness, c)| (fitness.unwrap_or_else(|| self.score(&c)), c))
+            .collect();
         self.scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Every child's fitness counts, a copy's too: the count is the algorithm's (the budget
+        // the swarms and NSGA-II are compared at), not the work of computing it.
         self.evaluations += self.scored.len() as u64;
         if self.scored[0].0 < self.best.0 - 1e-12 {
             self.best = self.scored[0].clone();
