@@ -11,7 +11,7 @@
 use crate::geometry::{wrap_angle, Cell, Point2};
 #[cfg(doc)]
 use crate::grid::metrics::{path_length, total_turning};
-use crate::grid::smoothing::for_each_kept;
+use crate::grid::smoothing::for_each_kept_after;
 use crate::grid::PlanningGrid;
 use crate::planner::{cannot_improve_on, improves_on};
 use std::ops::ControlFlow;
@@ -26,54 +26,124 @@ pub const STAIRCASE_STRETCH: f64 = 1.082_392_200_292_394;
 /// `solve` first moves the ends to the exact start and goal points, which can change what the
 /// delete operation keeps near them, so this is the answer's measure up to those two ends.
 pub fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
-    pulled_unless_no_better(grid, cells, None)
+    straighten(grid, cells, None, None)
         .expect("with nothing to beat the walk runs to the end")
+        .measure
 }
 
-/// [`pulled`], or `None` as soon as the straightened prefix shows the path cannot improve on
-/// `best` ([`cannot_improve_on`]): its length so far plus the straight distance left, or its
-/// turning so far, is already too much. The sums run in [`path_length`]'s and
-/// [`total_turning`]'s order, so a full walk gives their bits exactly.
-fn pulled_unless_no_better(
+/// What the straightening walk has summed when it keeps a point: the kept prefix's length and
+/// turning, in [`path_length`]'s and [`total_turning`]'s order (so a whole walk gives their bits
+/// exactly), and where it stands.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Prefix {
+    /// Index of the point just kept.
+    kept: usize,
+    at: Point2,
+    /// The heading of the last kept segment of nonzero length.
+    heading: Option<f64>,
+    length: f64,
+    turning: f64,
+}
+
+impl Prefix {
+    /// The walk at its first point. The sums start from -0.0, as `Iterator::sum` does: a path
+    /// with no turn measures the same bits.
+    fn start(first: Point2) -> Self {
+        Self {
+            kept: 0,
+            at: first,
+            heading: None,
+            length: -0.0,
+            turning: -0.0,
+        }
+    }
+
+    /// The walk after keeping `p`, the point of index `kept`.
+    fn keep(&mut self, kept: usize, p: Point2) {
+        let d = p - self.at;
+        self.length += d.norm();
+        if d.norm_squared() > 0.0 {
+            let h = d.y.atan2(d.x);
+            if let Some(before) = self.heading.replace(h) {
+                self.turning += wrap_angle(h - before).abs();
+            }
+        }
+        (self.kept, self.at) = (kept, p);
+    }
+}
+
+/// A straightened path: its measure, and the walk at each point it kept but the last (where a
+/// path sharing its beginning can resume: [`for_each_kept_after`]).
+struct Straightened {
+    measure: (f64, f64),
+    marks: Vec<Prefix>,
+}
+
+/// Straightens `cells` (resuming `from` a straightened path where the two share their
+/// beginning), or gives up with `None` as soon as the straightened prefix shows the path cannot
+/// improve on `best` ([`cannot_improve_on`]): its length so far plus the straight distance
+/// left, or its turning so far, is already too much.
+fn straighten(
     grid: &PlanningGrid,
     cells: &[Cell],
     best: Option<(f64, f64)>,
-) -> Option<(f64, f64)> {
+    from: Option<(&[Cell], &[Prefix])>,
+) -> Option<Straightened> {
     let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
-    let Some(&goal) = pts.last() else {
-        return Some((-0.0, -0.0));
+    let (Some(&first), Some(&goal)) = (pts.first(), pts.last()) else {
+        return Some(Straightened {
+            measure: (-0.0, -0.0),
+            marks: Vec::new(),
+        });
     };
-    // From -0.0, as `Iterator::sum` starts: a path with no turn measures the same bits.
-    let (mut length, mut turning) = (-0.0, -0.0);
-    let mut previous: Option<Point2> = None;
-    let mut heading: Option<f64> = None;
-    let walk = for_each_kept(grid, &pts, |p| {
-        if let Some(q) = previous {
-            let d = p - q;
-            length += d.norm();
-            if d.norm_squared() > 0.0 {
-                let h = d.y.atan2(d.x);
-                if let Some(before) = heading.replace(h) {
-                    turning += wrap_angle(h - before).abs();
-                }
-            }
+    // Where the walk kept `points[k]` it had looked at `points[..k + 2]` only.
+    let shared = from.map_or(0, |(seen, _)| {
+        seen.iter().zip(cells).take_while(|(a, b)| a == b).count()
+    });
+    let mut marks: Vec<Prefix> = from.map_or_else(Vec::new, |(_, marks)| {
+        marks
+            .iter()
+            .take_while(|m| m.kept + 2 <= shared)
+            .copied()
+            .collect()
+    });
+    let mut walk = match marks.last() {
+        Some(&resumed) => resumed,
+        None => {
+            marks.push(Prefix::start(first));
+            marks[0]
         }
-        previous = Some(p);
+    };
+    let last = pts.len() - 1;
+    let flow = for_each_kept_after(grid, &pts, walk.kept, |k, p| {
+        walk.keep(k, p);
+        if k < last {
+            marks.push(walk);
+        }
         match best {
-            Some(best) if cannot_improve_on(best, length + (goal - p).norm(), turning) => {
+            Some(best)
+                if cannot_improve_on(best, walk.length + (goal - p).norm(), walk.turning) =>
+            {
                 ControlFlow::Break(())
             }
             _ => ControlFlow::Continue(()),
         }
     });
-    walk.is_continue().then_some((length, turning))
+    flow.is_continue().then_some(Straightened {
+        measure: (walk.length, walk.turning),
+        marks,
+    })
 }
 
 /// The best answer so far by [`improves_on`]: a candidate replaces it only when its straightened
-/// path is shorter or smoother and worse on neither.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// path is shorter or smoother and worse on neither. Keeps the best's cells and its walk's
+/// marks: most candidates are the best rerouted or bred from it, and share its beginning, whose
+/// straightening is then not walked again.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct PulledBest {
     best: Option<(f64, f64)>,
+    cells: Vec<Cell>,
+    marks: Vec<Prefix>,
 }
 
 impl PulledBest {
@@ -96,18 +166,29 @@ impl PulledBest {
 
     /// Makes `cells` the best answer whatever it is (the seed a planner starts from).
     pub fn set(&mut self, grid: &PlanningGrid, cells: &[Cell]) {
-        self.best = Some(pulled(grid, cells));
+        let whole = straighten(grid, cells, None, None).expect("nothing to beat");
+        self.take(cells, whole);
+    }
+
+    fn take(&mut self, cells: &[Cell], straightened: Straightened) {
+        self.best = Some(straightened.measure);
+        self.cells.clear();
+        self.cells.extend_from_slice(cells);
+        self.marks = straightened.marks;
     }
 
     /// Straightens `cells` and makes it the best answer when it improves on the current one (or
     /// there is none yet). Returns whether it did.
     pub fn offer(&mut self, grid: &PlanningGrid, cells: &[Cell]) -> bool {
-        let Some(candidate) = pulled_unless_no_better(grid, cells, self.best) else {
+        let from = self.best.map(|_| (&self.cells[..], &self.marks[..]));
+        let Some(candidate) = straighten(grid, cells, self.best, from) else {
             return false;
         };
-        let better = self.best.is_none_or(|best| improves_on(best, candidate));
+        let better = self
+            .best
+            .is_none_or(|best| improves_on(best, candidate.measure));
         if better {
-            self.best = Some(candidate);
+            self.take(cells, candidate);
         }
         better
     }
@@ -143,15 +224,19 @@ mod tests {
     use crate::search::astar::astar_cells;
     use crate::test_support::{grid_from_rows, random_grid, rng};
     use proptest::prelude::*;
+    use rand::Rng;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(128))]
         /// The pulled measure is the delete operation's path measured by `path_length` and
-        /// `total_turning`, bit for bit; and stopping the walk early never changes an offer's
-        /// outcome: against bests around the candidate's own measure (so that the early stop
-        /// is taken on many of them), the stopped walk accepts exactly what the whole walk does.
+        /// `total_turning`, bit for bit. Neither stopping the walk early nor resuming it from
+        /// another path's marks changes a verdict: against bests around the candidate's own
+        /// measure (so that the early stop is taken on many), resumed from each other candidate
+        /// (reroutes share the A* path's beginning), the walk accepts exactly what the whole
+        /// walk does, with the same measure; and a `PulledBest` offered the candidates in turn
+        /// takes the same ones as `improves_on` on whole walks.
         #[test]
-        fn stopping_early_never_changes_a_verdict(
+        fn stopping_early_or_resuming_never_changes_a_verdict(
             seed in any::<u64>(),
             density in 0.0f64..0.3,
             scale_len in 0.97f64..1.03,
@@ -164,27 +249,53 @@ mod tests {
             };
             let mut candidates = vec![cells.clone()];
             for _ in 0..6 {
-                if let Some(moved) = crate::genetic::operators::reroute(&grid, &cells, 400, &mut r) {
+                let from = candidates[r.random_range(0..candidates.len())].clone();
+                if let Some(moved) = crate::genetic::operators::reroute(&grid, &from, 400, &mut r) {
                     candidates.push(moved);
                 }
             }
-            for candidate in &candidates {
+            let walks: Vec<Straightened> = candidates
+                .iter()
+                .map(|c| straighten(&grid, c, None, None).unwrap())
+                .collect();
+            for (candidate, whole) in candidates.iter().zip(&walks) {
+                let whole = whole.measure;
                 let pts: Vec<Point2> = candidate.iter().map(|c| c.center()).collect();
                 let straight = delete_redundant(&grid, &pts);
-                let whole = pulled(&grid, candidate);
                 prop_assert_eq!(whole.0.to_bits(), path_length(&straight).to_bits());
                 prop_assert_eq!(whole.1.to_bits(), total_turning(&straight).to_bits());
-                let mut bests: Vec<(f64, f64)> = candidates.iter().map(|c| pulled(&grid, c)).collect();
+                let mut bests: Vec<(f64, f64)> = walks.iter().map(|w| w.measure).collect();
                 bests.push((whole.0 * scale_len, whole.1 * scale_turn));
                 bests.push((whole.0 * scale_len, whole.1));
                 bests.push((whole.0, whole.1 * scale_turn));
-                for best in bests {
-                    let stopped = pulled_unless_no_better(&grid, candidate, Some(best));
-                    prop_assert_eq!(stopped.is_some_and(|m| improves_on(best, m)), improves_on(best, whole));
-                    if let Some(m) = stopped {
-                        prop_assert_eq!(m, whole);
+                let froms = std::iter::once(None).chain(
+                    candidates.iter().zip(&walks).map(|(c, w)| Some((&c[..], &w.marks[..]))),
+                );
+                for from in froms {
+                    let resumed = straighten(&grid, candidate, None, from).unwrap();
+                    prop_assert_eq!(resumed.measure.0.to_bits(), whole.0.to_bits());
+                    prop_assert_eq!(resumed.measure.1.to_bits(), whole.1.to_bits());
+                    for &best in &bests {
+                        let stopped = straighten(&grid, candidate, Some(best), from);
+                        prop_assert_eq!(
+                            stopped.as_ref().is_some_and(|m| improves_on(best, m.measure)),
+                            improves_on(best, whole)
+                        );
+                        if let Some(m) = stopped {
+                            prop_assert_eq!(m.measure, whole);
+                        }
                     }
                 }
+            }
+            let mut judge = PulledBest::default();
+            let mut naive: Option<(f64, f64)> = None;
+            for (candidate, whole) in candidates.iter().zip(&walks) {
+                let takes = naive.is_none_or(|best| improves_on(best, whole.measure));
+                if takes {
+                    naive = Some(whole.measure);
+                }
+                prop_assert_eq!(judge.offer(&grid, candidate), takes);
+                prop_assert_eq!(judge.get(), naive);
             }
         }
     }

@@ -14,7 +14,7 @@ use std::ops::ControlFlow;
 /// Removes every node whose kept predecessor sees its successor. The first and last points stay.
 pub fn delete_redundant(grid: &PlanningGrid, points: &[Point2]) -> Vec<Point2> {
     let mut out = Vec::new();
-    let ControlFlow::<()>::Continue(()) = for_each_kept(grid, points, |p| {
+    let ControlFlow::<()>::Continue(()) = for_each_kept(grid, points, |_, p| {
         out.push(p);
         ControlFlow::Continue(())
     }) else {
@@ -23,32 +23,44 @@ pub fn delete_redundant(grid: &PlanningGrid, points: &[Point2]) -> Vec<Point2> {
     out
 }
 
-/// [`delete_redundant`], handing each kept point to `keep` as soon as it is known, in order, and
-/// stopping as soon as `keep` breaks. The pulled judge ([`crate::judge`]) straightens a
-/// candidate only to learn whether it beats the best answer; most do not, and a prefix of the
-/// straightened path already longer or more turning than the best says so before the rest of
-/// the path's line-of-sight tests are run.
+/// [`delete_redundant`], handing each kept point (with its index in `points`) to `keep` as soon
+/// as it is known, in order, and stopping as soon as `keep` breaks. The pulled judge
+/// ([`crate::judge`]) straightens a candidate only to learn whether it beats the best answer;
+/// most do not, and a prefix of the straightened path already longer or more turning than the
+/// best says so before the rest of the path's line-of-sight tests are run.
 pub fn for_each_kept<B>(
     grid: &PlanningGrid,
     points: &[Point2],
-    mut keep: impl FnMut(Point2) -> ControlFlow<B>,
+    mut keep: impl FnMut(usize, Point2) -> ControlFlow<B>,
 ) -> ControlFlow<B> {
-    let Some((&first, rest)) = points.split_first() else {
+    let Some(&first) = points.first() else {
         return ControlFlow::Continue(());
     };
-    keep(first)?;
-    let Some((&last, inner)) = rest.split_last() else {
+    keep(0, first)?;
+    for_each_kept_after(grid, points, 0, keep)
+}
+
+/// [`for_each_kept`] from a point it kept, `points[kept]`, on: the points kept after it. What the
+/// walk keeps up to `points[kept]` depends only on `points[..kept + 2]` (keeping a point is
+/// decided by a line-of-sight test to the point after it), so a path that shares those points
+/// with one already straightened can resume where that one kept `points[kept]`.
+pub fn for_each_kept_after<B>(
+    grid: &PlanningGrid,
+    points: &[Point2],
+    kept: usize,
+    mut keep: impl FnMut(usize, Point2) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    let Some(last) = points.len().checked_sub(1).filter(|&last| kept < last) else {
         return ControlFlow::Continue(());
     };
-    let mut anchor = first;
-    for (k, &p) in inner.iter().enumerate() {
-        // `rest[k + 1]` is the point after `p`.
-        if !line_of_sight(grid, anchor, rest[k + 1]) {
-            keep(p)?;
-            anchor = p;
+    let mut anchor = points[kept];
+    for k in kept + 1..last {
+        if !line_of_sight(grid, anchor, points[k + 1]) {
+            keep(k, points[k])?;
+            anchor = points[k];
         }
     }
-    keep(last)
+    keep(last, points[last])
 }
 
 /// The delete operation weighing the costmap as cost-aware A* does: from the anchor, a node is
