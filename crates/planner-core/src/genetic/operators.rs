@@ -13,10 +13,10 @@ use rustc_hash::{FxHashMap, FxHashSet};
 /// A chromosome is valid when it runs from `start` to `goal` through free cells, each step to a
 /// neighbour, with no cell twice.
 pub fn is_valid(grid: &PlanningGrid, path: &[Cell], start: Cell, goal: Cell) -> bool {
-    let mut seen = FxHashSet::default();
     path.first() == Some(&start)
         && path.last() == Some(&goal)
-        && path.iter().all(|&c| grid.is_free(c) && seen.insert(c))
+        && path.iter().all(|&c| grid.is_free(c))
+        && repeat_free(path)
         && path.windows(2).all(|w| grid.adjacent(w[0], w[1]))
 }
 
@@ -157,13 +157,34 @@ pub fn crossover(a: &mut Vec<Cell>, b: &mut Vec<Cell>, rng: &mut impl Rng) -> bo
     let Some(&(i, j)) = shared.get(rng.random_range(0..shared.len().max(1))) else {
         return false;
     };
+    // Parents are chromosomes, each cell once, so a child can repeat only a cell both parents
+    // hold on either side of the cut: one `a` holds before `i` and `b` after `j` (the first
+    // child, `a[..i] + b[j..]`), or one `a` holds after `i` and `b` before `j` (the second). Where
+    // there is none, cutting loops would walk the whole child to change nothing: children of
+    // one seed mostly cross their shared cells in the same order.
+    debug_assert!(
+        repeat_free(a) && repeat_free(b),
+        "parents hold each cell once"
+    );
+    let loops_in_a = shared.iter().any(|&(ia, jb)| ia < i && jb > j);
+    let loops_in_b = shared.iter().any(|&(ia, jb)| ia > i && jb < j);
     let tail_a = a.split_off(i);
     let tail_b = b.split_off(j);
     a.extend(tail_b);
     b.extend(tail_a);
-    remove_loops(a);
-    remove_loops(b);
+    if loops_in_a {
+        remove_loops(a);
+    }
+    if loops_in_b {
+        remove_loops(b);
+    }
     true
+}
+
+/// Whether every cell of `path` is there once.
+fn repeat_free(path: &[Cell]) -> bool {
+    let mut seen = FxHashSet::default();
+    path.iter().all(|&c| seen.insert(c))
 }
 
 /// Eight-neighbourhood single-point mutation (4.3.3): a random inner gene moves to a random free
@@ -275,6 +296,12 @@ mod tests {
                 let shared = pair[0][1..pair[0].len() - 1].iter().any(|c| pair[1][1..pair[1].len() - 1].contains(c));
                 let crossed = crossover(&mut a, &mut b, &mut r);
                 prop_assert_eq!(crossed, shared);
+                // Repeat-free (checked by `is_valid` below) is what cutting loops makes of a child,
+                // and a repeat-free path is its own loops cut: a skipped cut changed nothing.
+                let (mut cut_a, mut cut_b) = (a.clone(), b.clone());
+                remove_loops(&mut cut_a);
+                remove_loops(&mut cut_b);
+                prop_assert_eq!((&cut_a, &cut_b), (&a, &b));
                 if !crossed { prop_assert_eq!(&a, &pair[0]); }
                 prop_assert!(is_valid(&grid, &a, s, g) && is_valid(&grid, &b, s, g));
                 if let Some(m) = mutate(&grid, &a, true, 200, &mut r) {
