@@ -46,15 +46,15 @@ struct Prefix {
 }
 
 impl Prefix {
-    /// The walk at its first point. The sums start from -0.0, as `Iterator::sum` does: a path
-    /// with no turn measures the same bits.
+    /// The walk at its first point. The sums start where `Iterator::sum` starts (-0.0 since Rust
+    /// 1.82, +0.0 before): a path with no turn measures the same bits as [`total_turning`].
     fn start(first: Point2) -> Self {
         Self {
             kept: 0,
             at: first,
             heading: None,
-            length: -0.0,
-            turning: -0.0,
+            length: empty_sum(),
+            turning: empty_sum(),
         }
     }
 
@@ -70,6 +70,11 @@ impl Prefix {
         }
         (self.kept, self.at) = (kept, p);
     }
+}
+
+/// The sum of no terms, as `Iterator::sum` gives it.
+fn empty_sum() -> f64 {
+    std::iter::empty::<f64>().sum()
 }
 
 /// A straightened path: its measure, and the walk at each point it kept but the last (where a
@@ -92,7 +97,7 @@ fn straighten(
     let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
     let (Some(&first), Some(&goal)) = (pts.first(), pts.last()) else {
         return Some(Straightened {
-            measure: (-0.0, -0.0),
+            measure: (empty_sum(), empty_sum()),
             marks: Vec::new(),
         });
     };
