@@ -402,6 +402,25 @@ impl PlanningGrid {
             == 0
     }
 
+    /// Whether no cell of the rectangle `[x0, x1] x [y0, y1]` (inclusive) is free, the part
+    /// outside the map counting as not free: four reads, whatever the rectangle's size. Lets a
+    /// search pass over a stretch of blocked cells at once.
+    pub fn none_free(&self, x0: i32, y0: i32, x1: i32, y1: i32) -> bool {
+        let (w, h) = (self.width() as i64, self.height() as i64);
+        let (x0, y0) = ((x0 as i64).max(0), (y0 as i64).max(0));
+        let (x1, y1) = ((x1 as i64 + 1).min(w), (y1 as i64 + 1).min(h));
+        if x0 >= x1 || y0 >= y1 {
+            return true;
+        }
+        let stride = w as usize + 1;
+        let at = |x: i64, y: i64| self.blocked_sums[y as usize * stride + x as usize];
+        let blocked = at(x1, y1)
+            .wrapping_sub(at(x0, y1))
+            .wrapping_sub(at(x1, y0))
+            .wrapping_add(at(x0, y0));
+        u64::from(blocked) == ((x1 - x0) * (y1 - y0)) as u64
+    }
+
     /// The free mask with a one-cell blocked border (row stride `width + 2`; cell (x, y) is at
     /// `(y + 1) * (width + 2) + x + 1`).
     pub fn padded_free(&self) -> &[bool] {
@@ -767,6 +786,20 @@ mod tests {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             let obstacle: Vec<bool> = (0..w * h).map(|_| rng.random_bool(density)).collect();
             prop_assert_eq!(squared_distance_transform(w, h, &obstacle), brute_force(w, h, &obstacle));
+        }
+
+        /// `none_free` is "no cell of the rectangle is free", cell by cell, for rectangles
+        /// inside, across and outside the map's edges.
+        #[test]
+        fn none_free_is_every_cell_blocked(w in 1usize..12, h in 1usize..12, seed in any::<u64>(), density in 0.5f64..1.0, x0 in -3i32..14, y0 in -3i32..14, dx in 0i32..8, dy in 0i32..8) {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let obstacle: Vec<bool> = (0..w * h).map(|_| rng.random_bool(density)).collect();
+            let info = MapInfo { width: w as u32, height: h as u32, resolution: 1.0, origin: Pose2::default() };
+            let g = PlanningGrid::from_obstacles(info, obstacle, 0.0);
+            let (x1, y1) = (x0 + dx, y0 + dy);
+            let cells = (x0..=x1).flat_map(|x| (y0..=y1).map(move |y| Cell::new(x, y)));
+            prop_assert_eq!(g.none_free(x0, y0, x1, y1), cells.clone().all(|c| !g.is_free(c)));
         }
 
         /// `next_to_blocked` is the eight `is_free` reads it replaces, for every cell of a random
