@@ -393,13 +393,7 @@ impl PlanningGrid {
         if x0 < 0 || y0 < 0 || x1 > w || y1 > h || x0 >= x1 || y0 >= y1 {
             return x0 >= 0 && y0 >= 0 && x1 <= w && y1 <= h; // empty: trivially free
         }
-        let stride = w as usize + 1;
-        let at = |x: i64, y: i64| self.blocked_sums[y as usize * stride + x as usize];
-        at(x1, y1)
-            .wrapping_sub(at(x0, y1))
-            .wrapping_sub(at(x1, y0))
-            .wrapping_add(at(x0, y0))
-            == 0
+        self.blocked_in(x0, y0, x1, y1) == 0
     }
 
     /// Whether no cell of the rectangle `[x0, x1] x [y0, y1]` (inclusive) is free, the part
@@ -412,13 +406,19 @@ impl PlanningGrid {
         if x0 >= x1 || y0 >= y1 {
             return true;
         }
-        let stride = w as usize + 1;
+        u64::from(self.blocked_in(x0, y0, x1, y1)) == ((x1 - x0) * (y1 - y0)) as u64
+    }
+
+    /// The cells that are not free in `[x0, x1) x [y0, y1)`, a non-empty rectangle inside the
+    /// map (half-open), from the four corners of the summed-area table.
+    #[inline]
+    fn blocked_in(&self, x0: i64, y0: i64, x1: i64, y1: i64) -> u32 {
+        let stride = self.width() + 1;
         let at = |x: i64, y: i64| self.blocked_sums[y as usize * stride + x as usize];
-        let blocked = at(x1, y1)
+        at(x1, y1)
             .wrapping_sub(at(x0, y1))
             .wrapping_sub(at(x1, y0))
-            .wrapping_add(at(x0, y0));
-        u64::from(blocked) == ((x1 - x0) * (y1 - y0)) as u64
+            .wrapping_add(at(x0, y0))
     }
 
     /// The free mask with a one-cell blocked border (row stride `width + 2`; cell (x, y) is at
