@@ -158,32 +158,16 @@ fn ring_may_hold(
     if r == 0 {
         return bottom;
     }
-    // The rows between: the left and right cells of each row, left first.
-    let (mut left, mut right) = (Vec::new(), Vec::new());
+    // The rows between: the left column's cells then the right's, put in row order by a stable
+    // sort, which keeps a row's left cell before its right one.
+    let mut between = Vec::new();
     let (lo, hi) = (cy - r + 1, cy + r - 1);
-    may_hold(
-        grid,
-        (cx - r, lo),
-        (cx - r, hi),
-        (x0, y0, x1, y1),
-        &mut left,
-    );
-    may_hold(
-        grid,
-        (cx + r, lo),
-        (cx + r, hi),
-        (x0, y0, x1, y1),
-        &mut right,
-    );
-    let mut out = bottom;
-    let (mut l, mut k) = (left.into_iter().peekable(), right.into_iter().peekable());
-    while let Some(next) = match (l.peek(), k.peek()) {
-        (Some(a), Some(b)) if b.y < a.y => k.next(),
-        (Some(_), _) => l.next(),
-        (None, _) => k.next(),
-    } {
-        out.push(next);
+    for x in [cx - r, cx + r] {
+        may_hold(grid, (x, lo), (x, hi), (x0, y0, x1, y1), &mut between);
     }
+    between.sort_by_key(|c| c.y);
+    let mut out = bottom;
+    out.append(&mut between);
     may_hold(
         grid,
         (cx - r, cy + r),
