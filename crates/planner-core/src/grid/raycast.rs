@@ -456,7 +456,7 @@ mod tests {
             let grid = crate::test_support::random_grid(seed, 300, 40, density).0;
             // Cell centres, grid corners, a rounding step either side of a grid line (as map
             // metres divided by the resolution give: 0.6 / 0.2 = 2.9999999999999996), a hair
-            // off a corner, and anywhere.
+            // off a corner, a hair off a cell centre, and anywhere.
             let ulp = |v: f64, up: bool| f64::from_bits(if up { v.to_bits() + 1 } else { v.to_bits() - 1 });
             let at = |v: f64| match snap {
                 0 => v.floor() + 0.5,
