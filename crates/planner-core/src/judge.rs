@@ -8,9 +8,8 @@
 //! 0 of 100, imga 15 of 100 better than the seed). A staircase a little longer than the seed's
 //! can straighten into a shorter or smoother answer; judging by the straightened path finds it.
 
-use crate::geometry::{wrap_angle, Cell, Point2};
-#[cfg(doc)]
-use crate::grid::metrics::{path_length, total_turning};
+use crate::geometry::{Cell, Point2};
+use crate::grid::metrics::{path_length, total_turning, RunningMeasure};
 use crate::grid::smoothing::for_each_kept_after;
 use crate::grid::PlanningGrid;
 use crate::planner::{cannot_improve_on, improves_on};
@@ -22,63 +21,20 @@ use std::ops::ControlFlow;
 /// one, and is not straightened at all (a heuristic: a wandering path may straighten more).
 pub const STAIRCASE_STRETCH: f64 = 1.082_392_200_292_394;
 
-/// Length (cells) and turning (rad) of a cell path after the delete operation, on cell centres.
-/// `solve` first moves the ends to the exact start and goal points, which can change what the
-/// delete operation keeps near them, so this is the answer's measure up to those two ends.
-pub fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
-    straighten(grid, cells, None, None)
-        .expect("with nothing to beat the walk runs to the end")
-        .measure
-}
-
-/// What the straightening walk has summed when it keeps a point: the kept prefix's length and
-/// turning, in [`path_length`]'s and [`total_turning`]'s order (so a whole walk gives their bits
-/// exactly), and where it stands.
+/// Where the straightening walk stands when it keeps a point: that point's index and the kept
+/// prefix's measure.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Prefix {
     /// Index of the point just kept.
     kept: usize,
-    at: Point2,
-    /// The heading of the last kept segment of nonzero length.
-    heading: Option<f64>,
-    length: f64,
-    turning: f64,
+    measure: RunningMeasure,
 }
 
-impl Prefix {
-    /// The walk at its first point. The sums start where `Iterator::sum` starts (-0.0 since Rust
-    /// 1.82, +0.0 before): a path with no turn measures the same bits as [`total_turning`].
-    fn start(first: Point2) -> Self {
-        Self {
-            kept: 0,
-            at: first,
-            heading: None,
-            length: empty_sum(),
-            turning: empty_sum(),
-        }
-    }
-
-    /// The walk after keeping `p`, the point of index `kept`.
-    fn keep(&mut self, kept: usize, p: Point2) {
-        let d = p - self.at;
-        self.length += d.norm();
-        if d.norm_squared() > 0.0 {
-            let h = d.y.atan2(d.x);
-            if let Some(before) = self.heading.replace(h) {
-                self.turning += wrap_angle(h - before).abs();
-            }
-        }
-        (self.kept, self.at) = (kept, p);
-    }
-}
-
-/// The sum of no terms, as `Iterator::sum` gives it.
-fn empty_sum() -> f64 {
-    std::iter::empty::<f64>().sum()
-}
-
-/// A straightened path: its measure, and the walk at each point it kept but the last (where a
-/// path sharing its beginning can resume: [`for_each_kept_after`]).
+/// A straightened path: its measure, the length (cells) and turning (rad) of the cell path
+/// after the delete operation on cell centres, and the walk at each point it kept but the last
+/// (where a path sharing its beginning can resume: [`for_each_kept_after`]). `solve` first
+/// moves the ends to the exact start and goal points, which can change what the delete
+/// operation keeps near them, so this is the answer's measure up to those two ends.
 struct Straightened {
     measure: (f64, f64),
     marks: Vec<Prefix>,
@@ -97,7 +53,7 @@ fn straighten(
     let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
     let (Some(&first), Some(&goal)) = (pts.first(), pts.last()) else {
         return Some(Straightened {
-            measure: (empty_sum(), empty_sum()),
+            measure: (path_length(&[]), total_turning(&[])),
             marks: Vec::new(),
         });
     };
@@ -115,19 +71,27 @@ fn straighten(
     let mut walk = match marks.last() {
         Some(&resumed) => resumed,
         None => {
-            marks.push(Prefix::start(first));
+            marks.push(Prefix {
+                kept: 0,
+                measure: RunningMeasure::start(first),
+            });
             marks[0]
         }
     };
     let last = pts.len() - 1;
     let flow = for_each_kept_after(grid, &pts, walk.kept, |k, p| {
-        walk.keep(k, p);
+        walk.measure.push(p);
+        walk.kept = k;
         if k < last {
             marks.push(walk);
         }
         match best {
             Some(best)
-                if cannot_improve_on(best, walk.length + (goal - p).norm(), walk.turning) =>
+                if cannot_improve_on(
+                    best,
+                    walk.measure.length + (goal - p).norm(),
+                    walk.measure.turning,
+                ) =>
             {
                 ControlFlow::Break(())
             }
@@ -135,7 +99,7 @@ fn straighten(
         }
     });
     flow.is_continue().then_some(Straightened {
-        measure: (walk.length, walk.turning),
+        measure: (walk.measure.length, walk.measure.turning),
         marks,
     })
 }
@@ -169,6 +133,11 @@ impl PulledBest {
         self.best
     }
 
+    /// The best answer's cells (empty while there is none).
+    pub fn cells(&self) -> &[Cell] {
+        &self.cells
+    }
+
     /// Makes `cells` the best answer whatever it is (the seed a planner starts from).
     pub fn set(&mut self, grid: &PlanningGrid, cells: &[Cell]) {
         let whole = straighten(grid, cells, None, None).expect("nothing to beat");
@@ -198,32 +167,26 @@ impl PulledBest {
         better
     }
 
-    /// One step of the local search on an answer (the colonies' and IMGA's `local_search`): a
-    /// reroute of `answer` ([`crate::genetic::operators::reroute`], at most `budget` median
-    /// insertions) is offered, and replaces `answer` when it straightens into a better one.
-    /// Returns whether it did.
+    /// One step of the local search on the answer (the colonies' and IMGA's `local_search`): a
+    /// reroute of it ([`crate::genetic::operators::reroute`], at most `budget` median
+    /// insertions) is offered, and replaces it when it straightens into a better one. Returns
+    /// whether it did.
     pub fn offer_reroute(
         &mut self,
         grid: &PlanningGrid,
-        answer: &mut Vec<Cell>,
         budget: usize,
         rng: &mut impl rand::Rng,
     ) -> bool {
-        let Some(moved) = crate::genetic::operators::reroute(grid, answer, budget, rng) else {
-            return false;
-        };
-        let kept = self.offer(grid, &moved);
-        if kept {
-            *answer = moved;
+        match crate::genetic::operators::reroute(grid, &self.cells, budget, rng) {
+            Some(moved) => self.offer(grid, &moved),
+            None => false,
         }
-        kept
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::metrics::{path_length, total_turning};
     use crate::grid::smoothing::delete_redundant;
     use crate::planner::PlanContext;
     use crate::search::astar::astar_cells;
@@ -303,6 +266,12 @@ mod tests {
                 prop_assert_eq!(judge.get(), naive);
             }
         }
+    }
+
+    /// Length (cells) and turning (rad) of a cell path after the delete operation, on cell
+    /// centres: the whole walk's measure.
+    fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
+        straighten(grid, cells, None, None).unwrap().measure
     }
 
     /// The cells of a path through a picture, in the order given (x right, y up).

@@ -544,7 +544,9 @@ impl<'a> Colony<'a> {
             let Some((cells, len)) = self.best.as_mut() else {
                 return;
             };
-            if self.best_pulled.offer_reroute(grid, cells, budget, ctx.rng) {
+            // Under the pulled judge the best-so-far is the judge's answer.
+            if self.best_pulled.offer_reroute(grid, budget, ctx.rng) {
+                *cells = self.best_pulled.cells().to_vec();
                 *len = cell_path_length(cells);
             }
         }

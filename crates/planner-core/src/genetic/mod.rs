@@ -428,9 +428,9 @@ struct Generations<'a> {
     insertion_budget: usize,
     scored: Vec<(f64, Vec<Cell>)>,
     best: (f64, Vec<Cell>),
-    /// Under [`GaJudge::Pulled`]: the answer (the path and its straightened measure) and the
+    /// Under [`GaJudge::Pulled`]: the answer (its path and straightened measure) and the
     /// hashes of the paths already straightened.
-    answer: Option<(Vec<Cell>, PulledBest)>,
+    answer: Option<PulledBest>,
     judged: FxHashSet<u64>,
     /// The field's path, the first individual when `seeded` (grid coordinates), and its cells
     /// until the pulled judge takes them.
@@ -453,13 +453,13 @@ impl Generations<'_> {
     /// the population not judged before and offers each as the answer (skipping those too long
     /// to straighten into a shorter one: [`PulledBest::may_improve`]).
     fn judge_pulled(&mut self) {
-        let Some((answer, measure)) = self.answer.as_mut() else {
+        let Some(answer) = self.answer.as_mut() else {
             return;
         };
         let mut fresh: Vec<(f64, u64, usize)> = Vec::new();
         for (i, (_, path)) in self.scored.iter().enumerate() {
             let len = crate::search::astar::cell_path_length(path);
-            if !measure.may_improve(len) {
+            if !answer.may_improve(len) {
                 continue;
             }
             let hash = FxBuildHasher.hash_one(path);
@@ -470,10 +470,7 @@ impl Generations<'_> {
         fresh.sort_by(|a, b| a.0.total_cmp(&b.0));
         for &(_, hash, i) in fresh.iter().take(PULLED_PER_GENERATION) {
             self.judged.insert(hash);
-            let path = &self.scored[i].1;
-            if measure.offer(self.problem.grid, path) {
-                answer.clone_from(path);
-            }
+            answer.offer(self.problem.grid, &self.scored[i].1);
         }
     }
 
@@ -484,10 +481,10 @@ impl Generations<'_> {
             if ctx.check().is_err() {
                 return;
             }
-            let Some((answer, measure)) = self.answer.as_mut() else {
+            let Some(answer) = self.answer.as_mut() else {
                 return;
             };
-            measure.offer_reroute(grid, answer, self.insertion_budget, ctx.rng);
+            answer.offer_reroute(grid, self.insertion_budget, ctx.rng);
         }
     }
 }
@@ -613,10 +610,10 @@ impl Population for Generations<'_> {
                 .seed_cells
                 .take()
                 .unwrap_or_else(|| self.best.1.clone());
-            let mut measure = PulledBest::default();
-            measure.set(grid, &first);
+            let mut answer = PulledBest::default();
+            answer.set(grid, &first);
             self.judged.insert(FxBuildHasher.hash_one(&first));
-            self.answer = Some((first, measure));
+            self.answer = Some(answer);
             self.judge_pulled();
         }
         Ok(self.best.0)
@@ -723,7 +720,8 @@ impl Population for Generations<'_> {
             stats.counters.insert("fitness_cost_m".into(), terms.cost_m);
         }
         let answer = match &self.answer {
-            Some((cells, _)) => {
+            Some(answer) => {
+                let cells = answer.cells();
                 stats
                     .counters
                     .insert("answer_fitness".into(), self.score(cells));

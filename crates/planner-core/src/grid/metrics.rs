@@ -75,6 +75,46 @@ fn heading_changes(points: &[Point2]) -> impl Iterator<Item = f64> + '_ {
     headings(points).filter_map(move |h| previous.replace(h).map(|p| wrap_angle(h - p)))
 }
 
+/// [`path_length`] and [`total_turning`] of a polyline given one point at a time: the same
+/// terms summed in the same order from the same start, so the same bits. The pulled judge
+/// ([`crate::judge`]) measures a path while the delete operation is still straightening it, to
+/// stop as soon as the prefix cannot win, or to resume from a beginning measured before.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunningMeasure {
+    at: Point2,
+    /// The heading of the last segment of nonzero length.
+    heading: Option<f64>,
+    /// [`path_length`] of the points so far.
+    pub length: f64,
+    /// [`total_turning`] of the points so far.
+    pub turning: f64,
+}
+
+impl RunningMeasure {
+    /// The measure of the one-point polyline `first`.
+    pub fn start(first: Point2) -> Self {
+        Self {
+            at: first,
+            heading: None,
+            length: path_length(&[]),
+            turning: total_turning(&[]),
+        }
+    }
+
+    /// The measure with `p` appended.
+    pub fn push(&mut self, p: Point2) {
+        let d = p - self.at;
+        self.length += d.norm();
+        if d.norm_squared() > 0.0 {
+            let h = d.y.atan2(d.x);
+            if let Some(before) = self.heading.replace(h) {
+                self.turning += wrap_angle(h - before).abs();
+            }
+        }
+        self.at = p;
+    }
+}
+
 /// Removes waypoints that lie on the straight line through their neighbours (and repeated
 /// points). The geometry of the path is unchanged; only redundant vertices go.
 pub fn drop_collinear(points: &[Point2]) -> Vec<Point2> {
@@ -247,6 +287,28 @@ pub fn measure(grid: &PlanningGrid, points: &[Point2]) -> PathMetrics {
 mod tests {
     use super::*;
     use std::f64::consts::{FRAC_PI_4, PI};
+
+    proptest::proptest! {
+        /// A running measure is `path_length` and `total_turning` bit for bit, at every prefix of
+        /// random polylines with repeated points and turns either way past pi.
+        #[test]
+        fn a_running_measure_is_path_length_and_total_turning(
+            raw in proptest::collection::vec((-5i32..5, -5i32..5, 0u8..4), 1..24),
+        ) {
+            let points: Vec<Point2> = raw
+                .iter()
+                .map(|&(x, y, hair)| Point2::new(x as f64 + hair as f64 * 1e-3, y as f64 / 3.0))
+                .collect();
+            let mut running = RunningMeasure::start(points[0]);
+            for n in 1..=points.len() {
+                if n > 1 {
+                    running.push(points[n - 1]);
+                }
+                proptest::prop_assert_eq!(running.length.to_bits(), path_length(&points[..n]).to_bits());
+                proptest::prop_assert_eq!(running.turning.to_bits(), total_turning(&points[..n]).to_bits());
+            }
+        }
+    }
 
     fn pts(v: &[(f64, f64)]) -> Vec<Point2> {
         v.iter().map(|&(x, y)| Point2::new(x, y)).collect()
