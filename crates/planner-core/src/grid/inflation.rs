@@ -107,78 +107,135 @@ impl InflationConfig {
     }
 }
 
-/// The memo of [`PlanningGrid::cost`]: a clone starts empty (it fills again as asked).
-#[derive(Debug, Default)]
-struct CostMemo(std::sync::OnceLock<Vec<std::sync::atomic::AtomicU8>>);
-
-impl Clone for CostMemo {
-    fn clone(&self) -> Self {
-        Self::default()
-    }
+/// The cost model by squared clearance in cells, as costmap_2d's inflation layer caches its costs
+/// by cell distance (`cached_costs_`): entry `d2` of the table is [`LETHAL`] at 0 (an obstacle
+/// cell), [`INSCRIBED`] up to the free radius, then [`CostModel::cost_at`] of `sqrt(d2)` cells.
+/// It turns the distance transform into every cell's cost in one pass over the map, with no
+/// exponential per cell.
+#[derive(Clone, Debug)]
+struct CostsByClearance {
+    /// Entry `d2`: the cost at `sqrt(d2)` cells. Ends where the cost has fallen to 0 for good
+    /// (it never rises with distance), or at [`CostsByClearance::MAX_LEN`] entries.
+    table: Vec<u8>,
+    /// A cell is free when its squared clearance is above this: the rule the free mask was made
+    /// by (see [`PlanningGrid::from_obstacles`]), in integers. [`NO_OBSTACLE`] is above it.
+    free_above: u32,
+    /// Whether every squared clearance past the table costs 0 (the table ends where the cost
+    /// did, not at its size limit).
+    zero_beyond: bool,
+    model: CostModel,
+    resolution: f64,
 }
 
-/// Where a grid's costs are: given cell by cell, or the model's memo.
-#[derive(Clone, Copy)]
-enum CostTable<'a> {
-    Given(&'a [u8]),
-    /// The model's memo. `free_by_cost`: every free cell's model cost is below [`INSCRIBED`]
-    /// and every other cell's is not (the grid's free radius is at least the model's inscribed
-    /// radius, as every grid built from a map has it), so the cost alone says whether a cell
-    /// is free: one table read instead of two.
-    Memo {
-        memo: &'a [std::sync::atomic::AtomicU8],
-        free_by_cost: bool,
-    },
+impl CostsByClearance {
+    /// At most 1 MB: an inflation radius of 10 m at 1 cm cells. A larger one (or finer cells)
+    /// computes the costs beyond the table from the model.
+    const MAX_LEN: usize = 1 << 20;
+
+    /// The table for `model` on cells of `resolution` m, where a cell is free when its squared
+    /// clearance (cells) is above `free_r2`.
+    fn new(model: CostModel, resolution: f64, free_r2: f64) -> Self {
+        // `d2 as f64 > free_r2` for an integer d2 is `d2 > floor(free_r2)`; kept below
+        // NO_OBSTACLE, which is always free.
+        let free_above = free_r2.max(0.0).floor().min((NO_OBSTACLE - 1) as f64) as u32;
+        let at = |d2: u32| match d2 {
+            0 => LETHAL,
+            d2 if d2 <= free_above => INSCRIBED,
+            d2 => model.cost_at((d2 as f64).sqrt() * resolution),
+        };
+        let mut table = Vec::new();
+        let mut zero_beyond = false;
+        while table.len() < Self::MAX_LEN {
+            let cost = at(table.len() as u32);
+            // The cost only falls with distance: the first 0 is the last entry that matters.
+            if cost == 0 {
+                zero_beyond = true;
+                break;
+            }
+            table.push(cost);
+        }
+        Self {
+            table,
+            free_above,
+            zero_beyond,
+            model,
+            resolution,
+        }
+    }
+
+    /// Whether a cell at squared clearance `d2` (cells; [`NO_OBSTACLE`] where there is none) is
+    /// free, and its cost: [`PlanningGrid::is_free`] and exactly [`LETHAL`] (`d2` 0),
+    /// [`INSCRIBED`] (not free) or [`CostModel::cost_at`] of its clearance.
+    #[inline]
+    fn free_and_cost(&self, d2: u32) -> (bool, u8) {
+        let cost = match self.table.get(d2 as usize) {
+            Some(&cost) => cost,
+            // Most cells of a large map: far from every wall.
+            None if self.zero_beyond => 0,
+            None => self.past_a_full_table(d2),
+        };
+        (d2 > self.free_above, cost)
+    }
+
+    /// The cost past the end of a table that hit its size limit.
+    #[cold]
+    fn past_a_full_table(&self, d2: u32) -> u8 {
+        if d2 == NO_OBSTACLE {
+            0
+        } else if d2 <= self.free_above {
+            INSCRIBED
+        } else {
+            self.model.cost_at((d2 as f64).sqrt() * self.resolution)
+        }
+    }
 }
 
 /// [`PlanningGrid::cell_reader`]: freedom and cost of cells of one grid.
 #[derive(Clone, Copy)]
 pub struct CellReader<'a> {
     grid: &'a PlanningGrid,
-    table: CostTable<'a>,
 }
 
 impl CellReader<'_> {
-    /// [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] of one cell with one bounds check.
+    /// [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] of one cell with one bounds check,
+    /// and one read where the cost says whether the cell is free.
     #[inline]
     pub fn free_and_cost(&self, c: Cell) -> (bool, u8) {
         let g = self.grid;
         if !g.info.contains(c) {
             return (false, LETHAL);
         }
-        let i = g.info.index(c);
-        if let CostTable::Memo {
-            free_by_cost: true, ..
-        } = self.table
-        {
-            let v = self.cost_at_index(c, i);
-            return (v < INSCRIBED, v);
+        let cost = g.costs[g.info.index(c)];
+        if g.free_by_cost {
+            return (cost < INSCRIBED, cost);
         }
         let free = g.padded_free[(c.y as usize + 1) * (g.width() + 2) + c.x as usize + 1];
-        (free, self.cost_at_index(c, i))
+        (free, cost)
     }
+}
 
-    /// The cost of cell `c`, inside the map, at row-major index `i`.
-    #[inline]
-    fn cost_at_index(&self, c: Cell, i: usize) -> u8 {
-        use std::sync::atomic::Ordering;
-        match self.table {
-            CostTable::Given(given) => given[i],
-            CostTable::Memo { memo, .. } => match memo[i].load(Ordering::Relaxed) {
-                NOT_YET => self.fill(c, i, memo),
-                v => v,
-            },
-        }
-    }
+/// The model's cost of every cell, from the distance transform.
+fn model_costs(clearance2: &[u32], model: &CostsByClearance) -> Vec<u8> {
+    clearance2
+        .iter()
+        .map(|&d2| model.free_and_cost(d2).1)
+        .collect()
+}
 
-    /// A model cost computed for the first time, and kept.
-    #[cold]
-    #[inline(never)]
-    fn fill(&self, c: Cell, i: usize, memo: &[std::sync::atomic::AtomicU8]) -> u8 {
-        let v = self.grid.model_cost(c);
-        memo[i].store(v, std::sync::atomic::Ordering::Relaxed);
-        v
-    }
+/// Whether a cell's cost alone says whether it is free: below [`INSCRIBED`] on every free cell
+/// and not below it on every other (one read instead of two). So with the model's costs when
+/// the free radius is at least the inscribed radius, as on every grid built from a map, and on a
+/// costmap whose unknown cells are not free.
+fn cost_says_free(costs: &[u8], padded_free: &[bool], w: usize) -> bool {
+    costs
+        .chunks_exact(w.max(1))
+        .zip(padded_free.chunks_exact(w + 2).skip(1))
+        .all(|(costs, free)| {
+            costs
+                .iter()
+                .zip(&free[1..=w])
+                .all(|(&cost, &free)| (cost < INSCRIBED) == free)
+        })
 }
 
 /// [`PlanningGrid::blocked_sums`] of a `w x h` grid from its padded free mask.
@@ -196,10 +253,6 @@ fn blocked_sums(w: usize, h: usize, padded_free: &[bool]) -> Vec<u32> {
     sums
 }
 
-/// A cell whose model cost is not computed yet (the model never gives 255, costmap_2d's
-/// NO_INFORMATION).
-const NOT_YET: u8 = 255;
-
 /// The grid every planner searches: which cells the robot's centre may occupy, and how far each
 /// cell is from the nearest obstacle. Cells outside the map are blocked.
 #[derive(Clone, Debug)]
@@ -210,16 +263,19 @@ pub struct PlanningGrid {
     /// queried, and a million roots cost a third of the transform.
     clearance2: Vec<u32>,
     inflation_radius: f64,
-    /// How clearance becomes a graded cost (see [`PlanningGrid::cost`]).
-    costs: CostModel,
-    /// Costs given cell by cell (a costmap received as is), instead of the model's.
-    given_costs: Option<Vec<u8>>,
-    /// The model's cost of each cell, computed on its first [`PlanningGrid::cost`] call (an
-    /// exponential and a square root) and kept: the safety objective and the cost terms ask for
-    /// the same cells thousands of times per plan. [`NOT_YET`] until then; 1 B per cell,
-    /// allocated on the first call. Atomic, because plans share the grid across threads (a
-    /// race only computes the same value twice).
-    model_costs: CostMemo,
+    /// Each cell's cost on costmap_2d's scale (see [`PlanningGrid::cost`]), row-major: the
+    /// model's, computed for the whole map when the grid is made (as costmap_2d fills its master
+    /// grid), or a costmap's own. 1 B per cell, read directly: the safety objective reads the
+    /// same cells thousands of times per plan, and cost-aware A* reads millions of cells once
+    /// each on a large map (where a lazily filled memo cost a second cache miss per cell).
+    costs: Vec<u8>,
+    /// The model the costs were made by; `None` for a costmap's own.
+    cost_model: Option<CostModel>,
+    /// [`cost_says_free`] of this grid.
+    free_by_cost: bool,
+    /// The squared clearance (cells, with its slack) above which a cell is free, as the free
+    /// mask was made: the model's costs are rebuilt with it.
+    free_r2: f64,
     /// Free cells, with a one-cell blocked border (row stride `width + 2`): lets the graph
     /// searches step to any 8-neighbour without a bounds check.
     padded_free: Vec<bool>,
@@ -274,14 +330,20 @@ impl PlanningGrid {
             }
         }
         grid.blocked_sums = blocked_sums(w, grid.height(), &grid.padded_free);
-        grid.given_costs = Some(data.iter().map(|&v| cost_from_occupancy(v)).collect());
+        grid.costs = data.iter().map(|&v| cost_from_occupancy(v)).collect();
+        grid.cost_model = None;
+        grid.free_by_cost = cost_says_free(&grid.costs, &grid.padded_free, w);
         grid
     }
 
-    /// The same grid with another cost model.
-    pub fn with_costs(mut self, costs: CostModel) -> Self {
-        self.costs = costs;
-        self.model_costs = CostMemo::default();
+    /// The same grid with another cost model (a costmap keeps its own costs).
+    pub fn with_costs(mut self, model: CostModel) -> Self {
+        if self.cost_model.is_some() {
+            let table = CostsByClearance::new(model, self.info.resolution, self.free_r2);
+            self.costs = model_costs(&self.clearance2, &table);
+            self.cost_model = Some(model);
+            self.free_by_cost = cost_says_free(&self.costs, &self.padded_free, self.width());
+        }
         self
     }
 
@@ -308,21 +370,27 @@ impl PlanningGrid {
             .zip(clearance2.chunks_exact(w))
         {
             for (p, &d) in row[1..=w].iter_mut().zip(d2) {
-                *p = d == NO_OBSTACLE || d as f64 > r2;
+                *p = d == NO_OBSTACLE || d as f64 > r2; // as `CostsByClearance::free_and_cost`
             }
         }
+        let model = CostModel {
+            inscribed_radius: radius,
+            inflation_radius: default_inflation_radius().max(radius),
+            cost_scaling_factor: default_cost_scaling_factor(),
+        };
+        let costs = model_costs(
+            &clearance2,
+            &CostsByClearance::new(model, info.resolution, r2),
+        );
         Self {
             blocked_sums: blocked_sums(w, h, &padded_free),
+            free_by_cost: cost_says_free(&costs, &padded_free, w),
             info,
             clearance2,
             inflation_radius: radius,
-            costs: CostModel {
-                inscribed_radius: radius,
-                inflation_radius: default_inflation_radius().max(radius),
-                cost_scaling_factor: default_cost_scaling_factor(),
-            },
-            given_costs: None,
-            model_costs: CostMemo::default(),
+            costs,
+            cost_model: Some(model),
+            free_r2: r2,
             padded_free,
         }
     }
@@ -436,52 +504,15 @@ impl PlanningGrid {
         if !self.info.contains(c) {
             return LETHAL;
         }
-        self.cost_at_index(c, self.info.index(c))
+        self.costs[self.info.index(c)]
     }
 
-    /// A reader of [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] together, with the cost
-    /// table looked up once: the swarms' safety objective and the weighted delete operation ask
-    /// both of every cell a candidate path crosses, thousands of times per plan: which table holds
-    /// the costs (and, for the model's, whether it exists yet) is then settled once per path, not
-    /// once per cell.
+    /// A reader of [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] together: the swarms'
+    /// safety objective and the weighted delete operation ask both of every cell a candidate
+    /// path crosses, thousands of times per plan, in one read where the cost says both.
     #[inline]
     pub fn cell_reader(&self) -> CellReader<'_> {
-        let table = match &self.given_costs {
-            Some(given) => CostTable::Given(given),
-            None => CostTable::Memo {
-                memo: self.model_costs.0.get_or_init(|| {
-                    use std::sync::atomic::AtomicU8;
-                    (0..self.info.cell_count())
-                        .map(|_| AtomicU8::new(NOT_YET))
-                        .collect()
-                }),
-                // A free cell's clearance is above the free radius, so above the inscribed
-                // radius: its model cost is at most 252; other cells get 253 or 254. (An
-                // infinite inscribed radius would make the free cells far from any obstacle
-                // inscribed too.)
-                free_by_cost: self.costs.inscribed_radius <= self.inflation_radius
-                    && self.costs.inscribed_radius.is_finite(),
-            },
-        };
-        CellReader { grid: self, table }
-    }
-
-    /// The cost of cell `c`, inside the map, at row-major index `i`.
-    #[inline]
-    fn cost_at_index(&self, c: Cell, i: usize) -> u8 {
-        self.cell_reader().cost_at_index(c, i)
-    }
-
-    /// [`PlanningGrid::cost`] of a cell inside the map by the cost model.
-    fn model_cost(&self, c: Cell) -> u8 {
-        let d = self.clearance(c);
-        if d <= 0.0 {
-            LETHAL
-        } else if !self.is_free(c) {
-            INSCRIBED
-        } else {
-            self.costs.cost_at(d)
-        }
+        CellReader { grid: self }
     }
 
     /// Distance (m) from a cell's centre to the nearest obstacle cell's centre; 0 outside the map.
@@ -719,10 +750,11 @@ mod tests {
             .collect()
     }
 
-    /// The reader's one-read path (freedom from the model cost) and its two-read path agree
-    /// with `is_free` and `cost` cell by cell, the border outside included: on grids built from
-    /// a map, with a cost model whose inscribed radius passes the free radius (two reads), and
-    /// on a costmap.
+    /// The reader agrees with `is_free` and `cost` cell by cell, the border outside included, and
+    /// `cost` with the cost model applied to each cell's clearance (lethal on an obstacle,
+    /// inscribed where the robot's centre may not be): on grids built from a map, with a cost
+    /// model whose inscribed radius passes the free radius (free cells that cost 253), and on a
+    /// costmap.
     #[test]
     fn the_cell_reader_agrees_with_is_free_and_cost() {
         use crate::test_support::{grid_with, rng};
@@ -766,12 +798,23 @@ mod tests {
                         (grid.is_free(c), grid.cost(c)),
                         "grid {k} {c:?}"
                     );
+                    if let Some(model) = grid.cost_model {
+                        let d = grid.clearance(c);
+                        let by_model = if d <= 0.0 {
+                            LETHAL
+                        } else if !grid.is_free(c) {
+                            INSCRIBED
+                        } else {
+                            model.cost_at(d)
+                        };
+                        assert_eq!(grid.cost(c), by_model, "grid {k} {c:?}");
+                    }
                     free += usize::from(grid.is_free(c));
                 }
             }
             assert!(free > 100, "grid {k}: {free} free cells");
         }
-        // With the inscribed radius past the free radius, free cells cost 253: the two-read path.
+        // With the inscribed radius past the free radius, free cells cost 253.
         let wide = &grids[3];
         assert!((0..30).any(|y| (0..40).any(|x| {
             let c = Cell::new(x, y);
@@ -780,6 +823,49 @@ mod tests {
     }
 
     proptest! {
+        /// The table by squared clearance gives every clearance the free mask's rule and the
+        /// model's cost (lethal at 0, inscribed where not free): inside the table, past its end
+        /// (0 where the cost has run out, computed where the table hit its size limit: a wide
+        /// inflation radius on fine cells), and where no obstacle exists.
+        #[test]
+        fn costs_by_clearance_are_the_models(
+            inscribed in 0.0f64..1.0,
+            inflation in 0.0f64..12.0,
+            factor in 0.0f64..10.0,
+            resolution in prop::sample::select(vec![0.005, 0.01, 0.02, 0.05, 0.1, 1.0]),
+            free_r2 in prop_oneof![0.0f64..2000.0, (0u32..2000).prop_map(|k| k as f64 + 1e-9)],
+            d2s in prop::collection::vec(any::<u32>(), 50),
+        ) {
+            let model = CostModel {
+                inscribed_radius: inscribed,
+                inflation_radius: inflation,
+                cost_scaling_factor: factor,
+            };
+            let costs = CostsByClearance::new(model, resolution, free_r2);
+            let by_rule = |d2: u32| {
+                // As `from_obstacles` makes the free mask and `model_cost` made the cost.
+                let free = d2 == NO_OBSTACLE || d2 as f64 > free_r2;
+                let d = if d2 == NO_OBSTACLE { f64::INFINITY } else { (d2 as f64).sqrt() * resolution };
+                let cost = if d <= 0.0 {
+                    LETHAL
+                } else if !free {
+                    INSCRIBED
+                } else {
+                    model.cost_at(d)
+                };
+                (free, cost)
+            };
+            let near = costs.table.len() as u32;
+            let probes = d2s
+                .iter()
+                .map(|&d2| d2 % (2 * near + 2))
+                .chain(d2s.iter().copied())
+                .chain([0, 1, near.saturating_sub(1), near, near + 1, NO_OBSTACLE - 1, NO_OBSTACLE]);
+            for d2 in probes {
+                prop_assert_eq!(costs.free_and_cost(d2), by_rule(d2), "d2 {}", d2);
+            }
+        }
+
         #[test]
         fn distance_transform_is_exact(w in 1usize..24, h in 1usize..24, seed in any::<u64>(), density in 0.0f64..0.3) {
             use rand::{Rng, SeedableRng};
@@ -888,6 +974,24 @@ mod tests {
         };
         let g = PlanningGrid::from_obstacles(info, vec![true; 4_000_000], 0.0);
         assert_eq!(g.nearest_free(Cell::new(1000, 1000), 1e9), None);
+    }
+
+    /// A flat cost out to 10 m on 5 mm cells needs more squared clearances than the table holds:
+    /// the ones past it are computed, and still the model's (252 to the radius, then 0).
+    #[test]
+    fn costs_past_a_full_table_are_computed() {
+        let model = CostModel {
+            inscribed_radius: 0.2,
+            inflation_radius: 10.0,
+            cost_scaling_factor: 0.0,
+        };
+        let costs = CostsByClearance::new(model, 0.005, 1600.0);
+        assert_eq!(costs.table.len(), CostsByClearance::MAX_LEN);
+        assert!(!costs.zero_beyond);
+        let at_m = |m: f64| costs.free_and_cost(((m / 0.005) * (m / 0.005)) as u32).1;
+        assert_eq!(at_m(9.9), 252);
+        assert_eq!(at_m(10.1), 0);
+        assert_eq!(costs.free_and_cost(NO_OBSTACLE), (true, 0));
     }
 
     /// costmap_2d's scale: lethal on the obstacle, inscribed in the band, the exponential decay
