@@ -111,7 +111,7 @@ impl InflationConfig {
 /// by cell distance (`cached_costs_`): entry `d2` of the table is [`LETHAL`] at 0 (an obstacle
 /// cell), [`INSCRIBED`] up to the free radius, then [`CostModel::cost_at`] of `sqrt(d2)` cells.
 /// It turns the distance transform into every cell's cost in one pass over the map, with no
-/// exponential per cell.
+/// exponential per cell (but past the end of a table that hit its size limit).
 #[derive(Clone, Debug)]
 struct CostsByClearance {
     /// Entry `d2`: the cost at `sqrt(d2)` cells. Ends where the cost has fallen to 0 for good
@@ -302,13 +302,12 @@ impl PlanningGrid {
                 }
             })
             .collect();
-        Ok(
-            Self::from_obstacles(*map.info(), obstacle, cfg.radius()).with_costs(CostModel {
-                inscribed_radius: cfg.robot_radius,
-                inflation_radius: cfg.inflation_radius,
-                cost_scaling_factor: cfg.cost_scaling_factor,
-            }),
-        )
+        let model = CostModel {
+            inscribed_radius: cfg.robot_radius,
+            inflation_radius: cfg.inflation_radius,
+            cost_scaling_factor: cfg.cost_scaling_factor,
+        };
+        Ok(Self::grown(*map.info(), obstacle, cfg.radius(), model))
     }
 
     /// A grid from a costmap as costmap_2d publishes it on a nav_msgs/OccupancyGrid (Nav2's
@@ -350,6 +349,17 @@ impl PlanningGrid {
     /// Builds a grid from an obstacle mask (row-major, `info.cell_count()` long), growing the
     /// obstacles by `radius` metres.
     pub fn from_obstacles(info: MapInfo, obstacle: Vec<bool>, radius: f64) -> Self {
+        let model = CostModel {
+            inscribed_radius: radius,
+            inflation_radius: default_inflation_radius().max(radius),
+            cost_scaling_factor: default_cost_scaling_factor(),
+        };
+        Self::grown(info, obstacle, radius, model)
+    }
+
+    /// [`PlanningGrid::from_obstacles`] with the costs of `model`: each cell's cost is computed
+    /// once, by the model it keeps (on a map of millions of cells a second pass is not free).
+    fn grown(info: MapInfo, obstacle: Vec<bool>, radius: f64, model: CostModel) -> Self {
         assert_eq!(
             obstacle.len(),
             info.cell_count(),
@@ -373,11 +383,6 @@ impl PlanningGrid {
                 *p = d == NO_OBSTACLE || d as f64 > r2; // as `CostsByClearance::free_and_cost`
             }
         }
-        let model = CostModel {
-            inscribed_radius: radius,
-            inflation_radius: default_inflation_radius().max(radius),
-            cost_scaling_factor: default_cost_scaling_factor(),
-        };
         let costs = model_costs(
             &clearance2,
             &CostsByClearance::new(model, info.resolution, r2),
