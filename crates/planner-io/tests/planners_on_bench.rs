@@ -147,3 +147,72 @@ fn an_interrupted_swarm_returns_its_best_so_far() {
         planner_core::planner::PlanError::TimedOut
     );
 }
+
+/// The same world at half the cell size: every parameter is in metres (steps, radii, corridors,
+/// margins), so every planner still answers, collision-free, with a path of about the same
+/// length (within 5 %; at 0.2 / 0.1 m they are within 1.1 % of each other on this query). A
+/// parameter that slipped into cells (a step of k cells, a ring of k cells) would
+/// halve or double its reach on the finer grid and show here as a failure or a path far off
+/// the coarse one's. docs/results/unseen_maps.md measures the same on a real map, 100 queries.
+#[test]
+fn every_planner_answers_alike_at_half_the_cell_size() {
+    use planner_core::grid::{GridMap, MapInfo};
+    let config = PlannerConfig::default();
+    let coarse = planner_io::load_map_server(&bench("datacenter_100.yaml")).unwrap();
+    let info = *coarse.info();
+    let (w, h) = (info.width as usize, info.height as usize);
+    let fine_data: Vec<i8> = (0..2 * h)
+        .flat_map(|y| (0..2 * w).map(move |x| (x / 2, y / 2)))
+        .map(|(x, y)| coarse.data()[y * w + x])
+        .collect();
+    let fine = GridMap::new(
+        MapInfo {
+            width: info.width * 2,
+            height: info.height * 2,
+            resolution: info.resolution / 2.0,
+            ..info
+        },
+        fine_data,
+    )
+    .unwrap();
+    let q = Query {
+        start: planner_core::geometry::Point2::new(0.5, 6.1),
+        goal: planner_core::geometry::Point2::new(19.5, 14.9),
+        tolerance: 0.0,
+    };
+    let grids = [&coarse, &fine].map(|m| PlanningGrid::new(m, &config.costmap).unwrap());
+    for name in PlannerName::ALL {
+        let planner = build(&PlannerConfig {
+            planner: name,
+            ..config.clone()
+        })
+        .unwrap();
+        let lengths = grids.each_ref().map(|grid| {
+            let mut rng = PlannerRng::seed_from_u64(0);
+            match solve(
+                planner.as_ref(),
+                grid,
+                &q,
+                SolveOptions::default(),
+                &mut PlanContext::never_interrupted(&mut rng),
+            ) {
+                Ok(plan) => {
+                    assert!(
+                        plan.metrics.collision_free,
+                        "{name} at {} m",
+                        grid.resolution()
+                    );
+                    Some(plan.metrics.length_m)
+                }
+                Err(PlanError::NoValidPath(_)) if BASELINE_COLONIES.contains(&name) => None,
+                Err(e) => panic!("{name} at {} m: {e}", grid.resolution()),
+            }
+        });
+        if let [Some(coarse), Some(fine)] = lengths {
+            assert!(
+                (fine / coarse - 1.0).abs() < 0.05,
+                "{name}: {coarse:.2} m at 0.2 m cells, {fine:.2} m at 0.1 m"
+            );
+        }
+    }
+}
