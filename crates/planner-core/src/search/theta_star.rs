@@ -236,8 +236,10 @@ mod tests {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
         /// On random maps, lazily (by length) and eagerly (weighing the cost): a path wherever A*
         /// finds one, none where it does not, every segment free (the lazy search's trusted
-        /// parents all checked), between the cell centres of start and goal, and by length no
-        /// longer than A*'s 8-neighbour path (a Theta* cell never costs more than its grid walk).
+        /// parents all checked), between the cell centres of start and goal, and by length not
+        /// much longer than A*'s 8-neighbour path. Theta*, lazy or not, is not guaranteed to be
+        /// shorter than the grid path (the committed seed is a lazy path 1 % longer); 10 % is
+        /// allowed: the check is against gross detours, not against Theta*'s own slack.
         #[test]
         fn a_free_path_wherever_astar_finds_one(seed in proptest::prelude::any::<u64>(), density in 0.0f64..0.4) {
             use crate::grid::raycast::path_is_free;
@@ -267,7 +269,7 @@ mod tests {
                         if m == 0.0 {
                             let length: f64 = w.windows(2).map(|s| (s[1] - s[0]).norm()).sum();
                             proptest::prop_assert!(
-                                length <= cell_path_length(cells) + 1e-9,
+                                length <= 1.1 * cell_path_length(cells),
                                 "{} against A*'s {}", length, cell_path_length(cells)
                             );
                         }
