@@ -120,7 +120,7 @@ impl Planner for ThetaStar {
                         .moves(c)
                         .map(|(_, nb)| info.index(nb))
                         .filter(|&j| closed[j])
-                        .map(|j| (j, g[j] + (info.cell_at(j).center() - c.center()).norm()))
+                        .map(|j| (j, g[j] + self.segment(grid, info.cell_at(j), c)))
                         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
                         .expect("the cell that reached this one is closed");
                     parent[i] = from as u32;
@@ -156,14 +156,12 @@ impl Planner for ThetaStar {
                 // Path 1: through this cell. Path 2 of Theta*: straight from its parent, when the
                 // parent sees the neighbour. With a cost term the triangle inequality no longer
                 // holds (the straight segment may cross costlier cells), so the cheaper one wins
-                // rather than path 2 always.
+                // rather than path 2 always. Lazily (by length, where path 2 always wins) it is
+                // taken on trust: its line of sight is tested when `nb` is expanded.
                 let mut best = (i, gc + self.segment(grid, c, nb));
-                if lazy && p != i {
-                    // On trust: checked when `nb` is expanded.
-                    best = (p, g[p] + (nb.center() - pc.center()).norm());
-                } else if p != i && line_of_sight(grid, pc.center(), nb.center()) {
+                if p != i && (lazy || line_of_sight(grid, pc.center(), nb.center())) {
                     let via_parent = g[p] + self.segment(grid, pc, nb);
-                    if via_parent <= best.1 {
+                    if lazy || via_parent <= best.1 {
                         best = (p, via_parent);
                     }
                 }
