@@ -136,8 +136,12 @@ impl CostsByClearance {
     /// clearance (cells) is above `free_r2`.
     fn new(model: CostModel, resolution: f64, free_r2: f64) -> Self {
         // `d2 as f64 > free_r2` for an integer d2 is `d2 > floor(free_r2)`; kept below
-        // NO_OBSTACLE, which is always free.
-        let free_above = free_r2.max(0.0).floor().min((NO_OBSTACLE - 1) as f64) as u32;
+        // NO_OBSTACLE, which is always free. A NaN compares false: only NO_OBSTACLE is free.
+        let free_above = if free_r2.is_nan() {
+            NO_OBSTACLE - 1
+        } else {
+            free_r2.max(0.0).floor().min((NO_OBSTACLE - 1) as f64) as u32
+        };
         let at = |d2: u32| match d2 {
             0 => LETHAL,
             d2 if d2 <= free_above => INSCRIBED,
@@ -174,7 +178,14 @@ impl CostsByClearance {
             None if self.zero_beyond => 0,
             None => self.past_a_full_table(d2),
         };
-        (d2 > self.free_above, cost)
+        (self.free(d2), cost)
+    }
+
+    /// Whether a cell at squared clearance `d2` may hold the robot's centre: the one rule the
+    /// free mask is made by.
+    #[inline]
+    fn free(&self, d2: u32) -> bool {
+        d2 > self.free_above
     }
 
     /// The cost past the end of a table that hit its size limit.
@@ -373,6 +384,7 @@ impl PlanningGrid {
         let mut clearance2 = vec![0u32; w * h];
         squared_distance_transform_in_place(w, h, &obstacle, &mut clearance2);
         drop(obstacle);
+        let table = CostsByClearance::new(model, info.resolution, r2);
         let mut padded_free = vec![false; (w + 2) * (h + 2)];
         for (row, d2) in padded_free
             .chunks_exact_mut(w + 2)
@@ -380,13 +392,10 @@ impl PlanningGrid {
             .zip(clearance2.chunks_exact(w))
         {
             for (p, &d) in row[1..=w].iter_mut().zip(d2) {
-                *p = d == NO_OBSTACLE || d as f64 > r2; // as `CostsByClearance::free_and_cost`
+                *p = table.free(d);
             }
         }
-        let costs = model_costs(
-            &clearance2,
-            &CostsByClearance::new(model, info.resolution, r2),
-        );
+        let costs = model_costs(&clearance2, &table);
         Self {
             blocked_sums: blocked_sums(w, h, &padded_free),
             free_by_cost: cost_says_free(&costs, &padded_free, w),
@@ -838,7 +847,11 @@ mod tests {
             inflation in 0.0f64..12.0,
             factor in 0.0f64..10.0,
             resolution in prop::sample::select(vec![0.005, 0.01, 0.02, 0.05, 0.1, 1.0]),
-            free_r2 in prop_oneof![0.0f64..2000.0, (0u32..2000).prop_map(|k| k as f64 + 1e-9)],
+            free_r2 in prop_oneof![
+                0.0f64..2000.0,
+                (0u32..2000).prop_map(|k| k as f64 + 1e-9),
+                Just(f64::NAN),
+            ],
             d2s in prop::collection::vec(any::<u32>(), 50),
         ) {
             let model = CostModel {
@@ -848,7 +861,7 @@ mod tests {
             };
             let costs = CostsByClearance::new(model, resolution, free_r2);
             let by_rule = |d2: u32| {
-                // As `from_obstacles` makes the free mask and `model_cost` made the cost.
+                // The rule in floating point, as the free mask and `model_cost` were made before.
                 let free = d2 == NO_OBSTACLE || d2 as f64 > free_r2;
                 let d = if d2 == NO_OBSTACLE { f64::INFINITY } else { (d2 as f64).sqrt() * resolution };
                 let cost = if d <= 0.0 {
