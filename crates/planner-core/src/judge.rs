@@ -40,15 +40,16 @@ struct Straightened {
     marks: Vec<Prefix>,
 }
 
-/// Straightens `cells` (resuming `from` a straightened path where the two share their
-/// beginning), or gives up with `None` as soon as the straightened prefix shows the path cannot
+/// Straightens `cells` (resuming from the straightened path `seen`, walked with `marks`, where
+/// the two share their beginning; both empty: from the start), or gives up with `None` as soon as the straightened prefix shows the path cannot
 /// improve on `best` ([`cannot_improve_on`]): its length so far plus the straight distance
 /// left, or its turning so far, is already too much.
 fn straighten(
     grid: &PlanningGrid,
     cells: &[Cell],
     best: Option<(f64, f64)>,
-    from: Option<(&[Cell], &[Prefix])>,
+    seen: &[Cell],
+    marks: &[Prefix],
 ) -> Option<Straightened> {
     let pts: Vec<Point2> = cells.iter().map(|c| c.center()).collect();
     let (Some(&first), Some(&goal)) = (pts.first(), pts.last()) else {
@@ -58,16 +59,12 @@ fn straighten(
         });
     };
     // Where the walk kept `points[k]` it had looked at `points[..k + 2]` only.
-    let shared = from.map_or(0, |(seen, _)| {
-        seen.iter().zip(cells).take_while(|(a, b)| a == b).count()
-    });
-    let mut marks: Vec<Prefix> = from.map_or_else(Vec::new, |(_, marks)| {
-        marks
-            .iter()
-            .take_while(|m| m.kept + 2 <= shared)
-            .copied()
-            .collect()
-    });
+    let shared = seen.iter().zip(cells).take_while(|(a, b)| a == b).count();
+    let mut marks: Vec<Prefix> = marks
+        .iter()
+        .take_while(|m| m.kept + 2 <= shared)
+        .copied()
+        .collect();
     let mut walk = match marks.last() {
         Some(&resumed) => resumed,
         None => {
@@ -140,7 +137,7 @@ impl PulledBest {
 
     /// Makes `cells` the best answer whatever it is (the seed a planner starts from).
     pub fn set(&mut self, grid: &PlanningGrid, cells: &[Cell]) {
-        let whole = straighten(grid, cells, None, None).expect("nothing to beat");
+        let whole = straighten(grid, cells, None, &[], &[]).expect("nothing to beat");
         self.take(cells, whole);
     }
 
@@ -154,8 +151,8 @@ impl PulledBest {
     /// Straightens `cells` and makes it the best answer when it improves on the current one (or
     /// there is none yet). Returns whether it did.
     pub fn offer(&mut self, grid: &PlanningGrid, cells: &[Cell]) -> bool {
-        let from = self.best.map(|_| (&self.cells[..], &self.marks[..]));
-        let Some(candidate) = straighten(grid, cells, self.best, from) else {
+        // With no best yet, its cells and marks are empty: a walk from the start.
+        let Some(candidate) = straighten(grid, cells, self.best, &self.cells, &self.marks) else {
             return false;
         };
         let better = self
@@ -224,7 +221,7 @@ mod tests {
             }
             let walks: Vec<Straightened> = candidates
                 .iter()
-                .map(|c| straighten(&grid, c, None, None).unwrap())
+                .map(|c| straighten(&grid, c, None, &[], &[]).unwrap())
                 .collect();
             for (candidate, whole) in candidates.iter().zip(&walks) {
                 let whole = whole.measure;
@@ -236,15 +233,15 @@ mod tests {
                 bests.push((whole.0 * scale_len, whole.1 * scale_turn));
                 bests.push((whole.0 * scale_len, whole.1));
                 bests.push((whole.0, whole.1 * scale_turn));
-                let froms = std::iter::once(None).chain(
-                    candidates.iter().zip(&walks).map(|(c, w)| Some((&c[..], &w.marks[..]))),
+                let froms = std::iter::once((&[][..], &[][..])).chain(
+                    candidates.iter().zip(&walks).map(|(c, w)| (&c[..], &w.marks[..])),
                 );
-                for from in froms {
-                    let resumed = straighten(&grid, candidate, None, from).unwrap();
+                for (seen, marks) in froms {
+                    let resumed = straighten(&grid, candidate, None, seen, marks).unwrap();
                     prop_assert_eq!(resumed.measure.0.to_bits(), whole.0.to_bits());
                     prop_assert_eq!(resumed.measure.1.to_bits(), whole.1.to_bits());
                     for &best in &bests {
-                        let stopped = straighten(&grid, candidate, Some(best), from);
+                        let stopped = straighten(&grid, candidate, Some(best), seen, marks);
                         prop_assert_eq!(
                             stopped.as_ref().is_some_and(|m| improves_on(best, m.measure)),
                             improves_on(best, whole)
@@ -271,7 +268,7 @@ mod tests {
     /// Length (cells) and turning (rad) of a cell path after the delete operation, on cell
     /// centres: the whole walk's measure.
     fn pulled(grid: &PlanningGrid, cells: &[Cell]) -> (f64, f64) {
-        straighten(grid, cells, None, None).unwrap().measure
+        straighten(grid, cells, None, &[], &[]).unwrap().measure
     }
 
     /// The cells of a path through a picture, in the order given (x right, y up).

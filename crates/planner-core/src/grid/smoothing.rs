@@ -9,41 +9,28 @@
 use crate::geometry::Point2;
 use crate::grid::inflation::PlanningGrid;
 use crate::grid::raycast::{line_of_sight, supercover};
+use std::convert::Infallible;
 use std::ops::ControlFlow;
 
 /// Removes every node whose kept predecessor sees its successor. The first and last points stay.
 pub fn delete_redundant(grid: &PlanningGrid, points: &[Point2]) -> Vec<Point2> {
-    let mut out = Vec::new();
-    let ControlFlow::<()>::Continue(()) = for_each_kept(grid, points, |_, p| {
+    let mut out: Vec<Point2> = points.first().copied().into_iter().collect();
+    let ControlFlow::Continue(()) = for_each_kept_after(grid, points, 0, |_, p| {
         out.push(p);
-        ControlFlow::Continue(())
-    }) else {
-        unreachable!("the collector never stops the walk")
-    };
+        ControlFlow::<Infallible>::Continue(())
+    });
     out
 }
 
-/// [`delete_redundant`], handing each kept point (with its index in `points`) to `keep` as soon
-/// as it is known, in order, and stopping as soon as `keep` breaks. The pulled judge
-/// ([`crate::judge`]) straightens a candidate only to learn whether it beats the best answer;
-/// most do not, and a prefix of the straightened path already longer or more turning than the
-/// best says so before the rest of the path's line-of-sight tests are run.
-pub fn for_each_kept<B>(
-    grid: &PlanningGrid,
-    points: &[Point2],
-    mut keep: impl FnMut(usize, Point2) -> ControlFlow<B>,
-) -> ControlFlow<B> {
-    let Some(&first) = points.first() else {
-        return ControlFlow::Continue(());
-    };
-    keep(0, first)?;
-    for_each_kept_after(grid, points, 0, keep)
-}
-
-/// [`for_each_kept`] from a point it kept, `points[kept]`, on: the points kept after it. What the
-/// walk keeps up to `points[kept]` depends only on `points[..kept + 2]` (keeping a point is
-/// decided by a line-of-sight test to the point after it), so a path that shares those points
-/// with one already straightened can resume where that one kept `points[kept]`.
+/// The points [`delete_redundant`] keeps after `points[kept]` (a point it kept), each handed to
+/// `keep` with its index in `points` as soon as it is known, in order; the walk stops as soon as
+/// `keep` breaks. The pulled judge ([`crate::judge`]) straightens a candidate only to learn
+/// whether it beats the best answer; most do not, and a prefix of the straightened path already
+/// longer or more turning than the best says so before the rest of the path's line-of-sight
+/// tests are run. What the walk keeps up to `points[kept]` depends only on `points[..kept + 2]`
+/// (keeping a point is decided by a line-of-sight test to the point after it), so a path that
+/// shares those points with one already straightened can resume where that one kept
+/// `points[kept]`.
 pub fn for_each_kept_after<B>(
     grid: &PlanningGrid,
     points: &[Point2],
