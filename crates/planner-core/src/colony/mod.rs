@@ -546,7 +546,8 @@ impl<'a> Colony<'a> {
             };
             // Under the pulled judge the best-so-far is the judge's answer.
             if self.best_pulled.offer_reroute(grid, budget, ctx.rng) {
-                *cells = self.best_pulled.cells().to_vec();
+                cells.clear();
+                cells.extend_from_slice(self.best_pulled.cells());
                 *len = cell_path_length(cells);
             }
         }
