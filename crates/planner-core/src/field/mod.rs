@@ -342,15 +342,21 @@ pub fn descend_on(
 /// needs to reach the goal without stalling.
 pub struct Wavefront {
     d: Vec<f64>,
-    /// Whether `d[i]` is set. Both tables start all-zero (untouched zero pages): the search pays
-    /// for the cells it reaches, not for the map.
-    reached: Vec<bool>,
+    /// Each cell's state in the search: [`UNREACHED`], [`REACHED`] (`d[i]` is an upper bound)
+    /// or [`SETTLED`] (`d[i]` is exact). One byte per cell, read with the distance on every
+    /// relaxation. Both tables start all-zero (untouched zero pages): the search pays for the
+    /// cells it reaches, not for the map.
+    state: Vec<u8>,
 }
+
+const UNREACHED: u8 = 0;
+const REACHED: u8 = 1;
+const SETTLED: u8 = 2;
 
 impl Wavefront {
     /// The distance of cell index `i`, infinite where the search did not reach.
     pub fn at(&self, i: usize) -> f64 {
-        if self.reached[i] {
+        if self.state[i] != UNREACHED {
             self.d[i]
         } else {
             f64::INFINITY
@@ -366,6 +372,8 @@ pub fn wavefront(
     goal: Cell,
     check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
 ) -> Result<Option<Wavefront>, crate::planner::PlanError> {
+    use crate::geometry::NEIGHBOURS_8;
+    use crate::grid::moves::allowed;
     use crate::search::astar::octile;
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
@@ -373,10 +381,13 @@ pub fn wavefront(
     let res = grid.resolution();
     let mut w = Wavefront {
         d: vec![0.0; info.cell_count()],
-        reached: vec![false; info.cell_count()],
+        state: vec![UNREACHED; info.cell_count()],
     };
-    let mut settled = vec![false; info.cell_count()];
-    w.reached[info.index(goal)] = true;
+    w.state[info.index(goal)] = REACHED;
+    // The moves are tested on the grid's padded free mask, by the one move rule A* applies to
+    // it ([`allowed`]), so no neighbour needs a bounds check: a free neighbour lies in the map.
+    let (width, stride) = (info.width as isize, info.width as isize + 2);
+    let free = grid.padded_free();
     let mut heap = BinaryHeap::new();
     // Keys are non-negative: their bit patterns order like the numbers; ties on f go to the
     // smaller index. The entries are small (16 B) because the heap is most of the time. The
@@ -397,13 +408,13 @@ pub fn wavefront(
     let mut stop_at = f64::INFINITY;
     while let Some(Reverse((f_bits, i))) = heap.pop() {
         let i = i as usize;
-        if settled[i] {
+        if w.state[i] == SETTLED {
             continue;
         }
         if f64::from_bits(f_bits) > stop_at {
             break;
         }
-        settled[i] = true;
+        w.state[i] = SETTLED;
         popped += 1;
         if popped.is_multiple_of(4096) {
             check()?;
@@ -413,22 +424,29 @@ pub fn wavefront(
         if c == start {
             stop_at = di + WAVEFRONT_MARGIN_M;
         }
-        for (_, n) in grid.moves(c) {
-            let step = if n.x != c.x && n.y != c.y {
+        let padded = (c.y as isize + 1) * stride + c.x as isize + 1;
+        for &(dx, dy) in &NEIGHBOURS_8 {
+            if !allowed(dx, dy, |x, y| {
+                free[(padded + x as isize + y as isize * stride) as usize]
+            }) {
+                continue;
+            }
+            let step = if dx != 0 && dy != 0 {
                 std::f64::consts::SQRT_2
             } else {
                 1.0
             };
-            let j = info.index(n);
+            let j = (i as isize + dx as isize + dy as isize * width) as usize;
             let dn = di + step * res;
-            if !settled[j] && (!w.reached[j] || dn < w.d[j]) {
+            let sj = w.state[j];
+            if sj == UNREACHED || (sj == REACHED && dn < w.d[j]) {
                 w.d[j] = dn;
-                w.reached[j] = true;
-                heap.push(key(dn, n, j));
+                w.state[j] = REACHED;
+                heap.push(key(dn, c.offset(dx, dy), j));
             }
         }
     }
-    Ok(settled[info.index(start)].then_some(w))
+    Ok((w.state[info.index(start)] == SETTLED).then_some(w))
 }
 
 /// How much longer than the shortest a path may be and still have its cells' wavefront
@@ -661,6 +679,52 @@ fn pull_back_into_free(grid: &PlanningGrid, from: Point2, target: Point2) -> Opt
 mod tests {
     use super::*;
     use crate::test_support::grid_from_rows;
+    use ordered_float::OrderedFloat;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Against Dijkstra from the goal (the `pathfinding` crate, A*'s move rule) as an oracle:
+        /// the wavefront answers exactly when the start is connected; every cell on a path at
+        /// most `WAVEFRONT_MARGIN_M` longer than the shortest has its exact distance, the start
+        /// included; every reached cell has at least its exact distance and, but for the goal, a
+        /// neighbour it may move to with a smaller one (what the descent needs).
+        #[test]
+        fn exact_in_its_band_and_downhill_everywhere(seed in any::<u64>(), density in 0.0f64..0.35) {
+            let (grid, start, goal) = crate::test_support::random_grid(seed, 30, 24, density);
+            let info = *grid.info();
+            let exact = pathfinding::directed::dijkstra::dijkstra_all(&goal, |&c| {
+                crate::search::astar::successors(&grid, c)
+                    .map(|(n, w)| (n, OrderedFloat(w)))
+                    .collect::<Vec<_>>()
+            });
+            let exact = |c: Cell| if c == goal { Some(0.0) } else { exact.get(&c).map(|(_, d)| d.0) };
+            let w = wavefront(&grid, start, goal, &|| Ok(())).unwrap();
+            prop_assert_eq!(w.is_some(), exact(start).is_some());
+            let Some(w) = w else { return Ok(()) };
+            let shortest = exact(start).unwrap();
+            prop_assert!((w.at(info.index(start)) - shortest).abs() < 1e-9);
+            for i in 0..info.cell_count() {
+                let c = info.cell_at(i);
+                let Some(e) = exact(c) else {
+                    prop_assert!(w.at(i).is_infinite(), "{:?} is not connected", c);
+                    continue;
+                };
+                let d = w.at(i);
+                if e + crate::search::astar::octile(c, start) <= shortest + WAVEFRONT_MARGIN_M - 1e-9 {
+                    prop_assert!((d - e).abs() < 1e-9, "{:?}: {} against {}", c, d, e);
+                }
+                if d.is_finite() {
+                    prop_assert!(d >= e - 1e-9);
+                    if c != goal {
+                        prop_assert!(grid
+                            .moves(c)
+                            .any(|(_, n)| w.at(info.index(n)) < d));
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn traction_point_on_a_hand_computed_case() {
