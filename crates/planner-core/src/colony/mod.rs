@@ -322,11 +322,11 @@ impl Planner for ColonyPlanner {
         self.variant.name()
     }
 
-    /// The navigation function (8 + 1 + 1 B: distance, reached, settled; also the `eapf_iaco`
+    /// The navigation function (8 + 1 B: distance and search state; also the `eapf_iaco`
     /// seed's), or A* where the field falls back to it, plus the pheromone and its update count
     /// (8 + 4 B), the ants' visit stamps (4 B) and the heuristic's row index (4 B) of every cell.
     fn working_bytes_per_cell(&self) -> u64 {
-        crate::planner::ASTAR_BYTES_PER_CELL + 10 + 20
+        crate::planner::ASTAR_BYTES_PER_CELL + 9 + 20
     }
 
     /// The walks an iteration keeps, each at most the step budget long (8 B per cell): the

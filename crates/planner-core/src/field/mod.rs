@@ -373,7 +373,7 @@ pub fn wavefront(
     check: &dyn Fn() -> Result<(), crate::planner::PlanError>,
 ) -> Result<Option<Wavefront>, crate::planner::PlanError> {
     use crate::geometry::NEIGHBOURS_8;
-    use crate::grid::moves::allowed;
+    use crate::grid::moves::{allowed, step_length};
     use crate::search::astar::octile;
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
@@ -431,11 +431,7 @@ pub fn wavefront(
             }) {
                 continue;
             }
-            let step = if dx != 0 && dy != 0 {
-                std::f64::consts::SQRT_2
-            } else {
-                1.0
-            };
+            let step = step_length(dx, dy);
             let j = (i as isize + dx as isize + dy as isize * width) as usize;
             let dn = di + step * res;
             let sj = w.state[j];
@@ -684,18 +680,25 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
-        /// Against Dijkstra from the goal (the `pathfinding` crate, A*'s move rule) as an oracle:
-        /// the wavefront answers exactly when the start is connected; every cell on a path at
-        /// most `WAVEFRONT_MARGIN_M` longer than the shortest has its exact distance, the start
-        /// included; every reached cell has at least its exact distance and, but for the goal, a
-        /// neighbour it may move to with a smaller one (what the descent needs).
+        /// Against Dijkstra from the goal (the `pathfinding` crate, A*'s move rule) as an oracle,
+        /// on 0.25 m cells: the wavefront answers exactly when the start is connected; every
+        /// cell whose exact distance plus its octile distance to the start is within
+        /// `WAVEFRONT_MARGIN_M` of the shortest (the search's own stop rule, so every cell of a
+        /// path that much longer than the shortest) has its exact distance, the start included;
+        /// every reached cell has at least its exact distance and, but for the goal, a neighbour
+        /// it may move to with a smaller one (what the descent needs).
         #[test]
         fn exact_in_its_band_and_downhill_everywhere(seed in any::<u64>(), density in 0.0f64..0.35) {
             let (grid, start, goal) = crate::test_support::random_grid(seed, 30, 24, density);
+            // The same cells at 0.25 m, so that cells and metres cannot be confused.
+            let res = 0.25;
+            let grid = crate::test_support::grid_with((30, 24), res, 0.0, |x, y| {
+                !grid.is_free(Cell::new(x as i32, y as i32))
+            });
             let info = *grid.info();
             let exact = pathfinding::directed::dijkstra::dijkstra_all(&goal, |&c| {
                 crate::search::astar::successors(&grid, c)
-                    .map(|(n, w)| (n, OrderedFloat(w)))
+                    .map(|(n, w)| (n, OrderedFloat(w * res)))
                     .collect::<Vec<_>>()
             });
             let exact = |c: Cell| if c == goal { Some(0.0) } else { exact.get(&c).map(|(_, d)| d.0) };
@@ -711,7 +714,9 @@ mod tests {
                     continue;
                 };
                 let d = w.at(i);
-                if e + crate::search::astar::octile(c, start) <= shortest + WAVEFRONT_MARGIN_M - 1e-9 {
+                if e + crate::search::astar::octile(c, start) * res
+                    <= shortest + WAVEFRONT_MARGIN_M - 1e-9
+                {
                     prop_assert!((d - e).abs() < 1e-9, "{:?}: {} against {}", c, d, e);
                 }
                 if d.is_finite() {
