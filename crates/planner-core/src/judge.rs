@@ -41,9 +41,10 @@ struct Straightened {
 }
 
 /// Straightens `cells` (resuming from the straightened path `seen`, walked with `marks`, where
-/// the two share their beginning; both empty: from the start), or gives up with `None` as soon as the straightened prefix shows the path cannot
-/// improve on `best` ([`cannot_improve_on`]): its length so far plus the straight distance
-/// left, or its turning so far, is already too much.
+/// the two share their beginning; both empty: from the start), or gives up with `None` as soon
+/// as the straightened prefix shows the path cannot improve on `best` ([`cannot_improve_on`]):
+/// its length so far plus the straight distance left, or its turning so far, is already too
+/// much.
 fn straighten(
     grid: &PlanningGrid,
     cells: &[Cell],

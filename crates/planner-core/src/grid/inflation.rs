@@ -167,18 +167,17 @@ impl CostsByClearance {
         }
     }
 
-    /// Whether a cell at squared clearance `d2` (cells; [`NO_OBSTACLE`] where there is none) is
-    /// free, and its cost: [`PlanningGrid::is_free`] and exactly [`LETHAL`] (`d2` 0),
-    /// [`INSCRIBED`] (not free) or [`CostModel::cost_at`] of its clearance.
+    /// The cost of a cell at squared clearance `d2` (cells; [`NO_OBSTACLE`] where there is
+    /// none): exactly [`LETHAL`] (`d2` 0), [`INSCRIBED`] (not [`CostsByClearance::free`]) or
+    /// [`CostModel::cost_at`] of its clearance.
     #[inline]
-    fn free_and_cost(&self, d2: u32) -> (bool, u8) {
-        let cost = match self.table.get(d2 as usize) {
+    fn cost(&self, d2: u32) -> u8 {
+        match self.table.get(d2 as usize) {
             Some(&cost) => cost,
             // Most cells of a large map: far from every wall.
             None if self.zero_beyond => 0,
             None => self.past_a_full_table(d2),
-        };
-        (self.free(d2), cost)
+        }
     }
 
     /// Whether a cell at squared clearance `d2` may hold the robot's centre: the one rule the
@@ -227,10 +226,7 @@ impl CellReader<'_> {
 
 /// The model's cost of every cell, from the distance transform.
 fn model_costs(clearance2: &[u32], model: &CostsByClearance) -> Vec<u8> {
-    clearance2
-        .iter()
-        .map(|&d2| model.free_and_cost(d2).1)
-        .collect()
+    clearance2.iter().map(|&d2| model.cost(d2)).collect()
 }
 
 /// Whether a cell's cost alone says whether it is free: below [`INSCRIBED`] on every free cell
@@ -880,7 +876,7 @@ mod tests {
                 .chain(d2s.iter().copied())
                 .chain([0, 1, near.saturating_sub(1), near, near + 1, NO_OBSTACLE - 1, NO_OBSTACLE]);
             for d2 in probes {
-                prop_assert_eq!(costs.free_and_cost(d2), by_rule(d2), "d2 {}", d2);
+                prop_assert_eq!((costs.free(d2), costs.cost(d2)), by_rule(d2), "d2 {}", d2);
             }
         }
 
@@ -1006,10 +1002,13 @@ mod tests {
         let costs = CostsByClearance::new(model, 0.005, 1600.0);
         assert_eq!(costs.table.len(), CostsByClearance::MAX_LEN);
         assert!(!costs.zero_beyond);
-        let at_m = |m: f64| costs.free_and_cost(((m / 0.005) * (m / 0.005)) as u32).1;
+        let at_m = |m: f64| costs.cost(((m / 0.005) * (m / 0.005)) as u32);
         assert_eq!(at_m(9.9), 252);
         assert_eq!(at_m(10.1), 0);
-        assert_eq!(costs.free_and_cost(NO_OBSTACLE), (true, 0));
+        assert_eq!(
+            (costs.free(NO_OBSTACLE), costs.cost(NO_OBSTACLE)),
+            (true, 0)
+        );
     }
 
     /// costmap_2d's scale: lethal on the obstacle, inscribed in the band, the exponential decay
