@@ -20,6 +20,11 @@ PARAMS = (
     "    map_yaml: ''\n    follow_plan: false\n    planner: astar\n    max_planning_time: 60.0\n"
     # A swarm slow enough to cancel: a million iterations, no patience rule to end it early.
     "    swarm: {iterations: 1000000, patience: 0}\n"
+    # Nav2's plugin ids, as its behaviour trees send them: its own C++ plugin's block answers
+    # with `planner`, an id of ours with the planner it names.
+    "    planner_plugins: [GridBased, Smooth]\n"
+    "    GridBased: {plugin: nav2_navfn_planner/NavfnPlanner, tolerance: 0.5}\n"
+    "    Smooth: {plugin: any_angle}\n"
 )
 
 
@@ -101,6 +106,17 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         )
         status, result = nav2.get_path(start, goal, planner_id="dijkstra")
         assert (status, result.error_code) == (6, 201) and "dijkstra" in result.error_msg  # ABORTED
+        assert "GridBased" in result.error_msg
+        # planner_plugins' ids: Nav2's GridBased (its navfn block) answers with `planner`, an id
+        # naming one of ours with that one.
+        for planner_id, answered in [("GridBased", "astar"), ("Smooth", "any_angle")]:
+            before = len(ros.diagnostics)
+            status, result = nav2.get_path(start, goal, planner_id=planner_id)
+            assert (status, result.error_code) == (4, 0), f"{planner_id}: {result.error_msg}"
+            ros.spin_until(
+                lambda: any(code == "NONE" and v.get("planner") == answered for code, _, v in ros.diagnostics_since(before)),
+                10, f"/diagnostics naming {answered} for {planner_id}",
+            )
 
         # Nav2's codes: occupied goal 206, goal outside 204, unreachable 208.
         status, result = nav2.get_path(start, world(5.5, 3.0))

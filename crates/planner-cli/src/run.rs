@@ -20,7 +20,13 @@ use std::time::{Duration, Instant};
 /// The config file's planning parameters, or the defaults.
 pub fn load_config(path: Option<&Path>) -> Result<PlannerConfig> {
     Ok(match path {
-        Some(p) => planner_io::load_planner_config(p)?,
+        Some(p) => {
+            let file = planner_io::parameters::load_parameter_file(p)?;
+            for w in &file.warnings {
+                eprintln!("warning: {}: {w}", p.display());
+            }
+            file.planning
+        }
         None => PlannerConfig::default(),
     })
 }

@@ -107,6 +107,7 @@ pub fn load_scenario_file(path: &Path) -> Result<(ScenarioFile, PathBuf), LoadEr
 }
 
 /// The `ros__parameters` block of `node_name` in a ROS 2 parameter file (Nav2's layout), as YAML.
+/// A fully qualified name (`/robot1/planner_server`) is found as one key or nested by namespace.
 pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::Value, LoadError> {
     let text = read(path)?;
     planner_core::grid::parsers::yaml_guard::check(&text).map_err(|message| LoadError::Config {
@@ -117,7 +118,16 @@ pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::V
         path: path.to_owned(),
         message: e.to_string(),
     })?;
+    // `/ns/node` as one key, or nested as Nav2's launch writes a namespaced file (`ns: node:`);
+    // a node in the root namespace is found by its plain name, which callers try next.
+    let segments: Vec<&str> = node_name.split('/').filter(|s| !s.is_empty()).collect();
+    let nested = || {
+        (node_name.starts_with('/') && segments.len() > 1)
+            .then(|| segments.iter().try_fold(&doc, |v, segment| v.get(segment)))
+            .flatten()
+    };
     doc.get(node_name)
+        .or_else(nested)
         .and_then(|n| n.get("ros__parameters"))
         .cloned()
         .ok_or_else(|| LoadError::Config {

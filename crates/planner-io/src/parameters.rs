@@ -8,8 +8,10 @@ use crate::LoadError;
 use chassis::follower::FollowerParams;
 use chassis::limits::TwistLimits;
 use planner_core::config::PlannerConfig;
+use planner_core::PlannerName;
 use serde::{Deserialize, Serialize};
 use serde_yaml::{Mapping, Value};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The node name whose block the file holds.
@@ -75,6 +77,16 @@ pub struct NodeParams {
     pub order_waypoints: bool,
     /// follow_waypoints: how long (s) to stay at each waypoint (Nav2's WaitAtWaypoint).
     pub waypoint_pause_duration: f64,
+    /// Nav2's `planner_plugins`: the planner ids a ComputePathToPose `planner_id` may name, as
+    /// planner_server's behaviour trees send them (`GridBased` by default). Each id may have a
+    /// block of its own, `<id>: {plugin: <planner>}`, naming one of this node's planners; an id
+    /// without one, or whose `plugin` is a Nav2 C++ plugin (`nav2_navfn_planner/NavfnPlanner`),
+    /// answers with the `planner` parameter.
+    pub planner_plugins: Vec<String>,
+    /// What each id of `planner_plugins` with a block of its own answers with (`None`: the
+    /// `planner` parameter); filled from those blocks, not a key of its own.
+    #[serde(skip)]
+    pub plugin_planners: BTreeMap<String, Option<PlannerName>>,
 }
 
 impl Default for NodeParams {
@@ -100,6 +112,8 @@ impl Default for NodeParams {
             costmap_topic: String::new(),
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
+            planner_plugins: vec!["GridBased".into()],
+            plugin_planners: BTreeMap::new(),
         }
     }
 }
@@ -143,7 +157,86 @@ impl NodeParams {
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
             return Err("map_to_odom must be finite".into());
         }
+        for (k, id) in self.planner_plugins.iter().enumerate() {
+            if id.is_empty() || self.planner_plugins[..k].contains(id) {
+                return Err(format!(
+                    "planner_plugins must name each id once, none empty: {:?}",
+                    self.planner_plugins
+                ));
+            }
+        }
         Ok(())
+    }
+
+    /// The planner a ComputePathToPose `planner_id` asks for, resolved as planner_server resolves
+    /// its plugin ids: empty, or an id of `planner_plugins` without a planner of its own, is
+    /// `None` (the `planner` parameter); an id with one is that planner; otherwise the id must be
+    /// one of this node's planner names. Anything else is refused with what it could have been.
+    pub fn planner_for_id(&self, id: &str) -> Result<Option<PlannerName>, String> {
+        if id.is_empty() {
+            return Ok(None);
+        }
+        if self.planner_plugins.iter().any(|p| p == id) {
+            return Ok(self.plugin_planners.get(id).copied().flatten());
+        }
+        id.parse::<PlannerName>().map(Some).map_err(|_| {
+            format!(
+                "planner_id `{id}` is neither an id of planner_plugins ({}) nor a planner ({})",
+                self.planner_plugins.join(", "),
+                PlannerName::list()
+            )
+        })
+    }
+}
+
+/// Keys of Nav2's planner_server block that this node reads past: it hosts no costmap of its own
+/// and stamps with the wall clock. Each is accepted with a warning, so that Nav2's own params
+/// file loads unedited.
+const NAV2_KEYS_IGNORED: [&str; 2] = ["costmap_update_timeout", "use_sim_time"];
+
+/// What an id's block (`GridBased: {plugin: ..., tolerance: ...}`) makes the id answer with:
+/// `Some(planner)` for one of ours, `None` (the `planner` parameter) for a Nav2 C++ plugin
+/// (pluginlib's `package/Class` or `package::Class`), with a warning for that and for every other
+/// key of the block, which belongs to the C++ plugin.
+fn plugin_block(
+    id: &str,
+    block: &Value,
+    warnings: &mut Vec<String>,
+) -> Result<Option<PlannerName>, String> {
+    let Value::Mapping(m) = block else {
+        return Err(format!(
+            "`{id}` (in planner_plugins) must be a block such as `{id}: {{plugin: mocmcso}}`"
+        ));
+    };
+    let plugin = match m.get("plugin") {
+        Some(Value::String(s)) => s.as_str(),
+        _ => {
+            return Err(format!(
+                "`{id}.plugin` must name a planner ({})",
+                PlannerName::list()
+            ))
+        }
+    };
+    let others: Vec<&str> = m
+        .keys()
+        .filter_map(Value::as_str)
+        .filter(|k| *k != "plugin")
+        .collect();
+    if !others.is_empty() {
+        warnings.push(format!(
+            "ignored in `{id}`: {} (keys of a Nav2 C++ plugin; this node's own are top-level: tolerance, allow_unknown, ...)",
+            others.join(", ")
+        ));
+    }
+    match plugin.parse::<PlannerName>() {
+        Ok(p) => Ok(Some(p)),
+        Err(_) if plugin.contains('/') || plugin.contains("::") => {
+            warnings.push(format!(
+                "`{id}.plugin` is the Nav2 plugin `{plugin}`, which this node does not load: `{id}` answers with the `planner` parameter"
+            ));
+            Ok(None)
+        }
+        Err(e) => Err(format!("`{id}.plugin`: {}", e.reason)),
     }
 }
 
@@ -152,6 +245,9 @@ impl NodeParams {
 pub struct ParameterFile {
     pub planning: PlannerConfig,
     pub node: NodeParams,
+    /// What was read past (Nav2's keys for its C++ plugins and its costmap), one line each, for
+    /// the reader to log.
+    pub warnings: Vec<String>,
 }
 
 /// The top-level keys a default value serialises to: a struct's field names.
@@ -206,13 +302,34 @@ pub fn load_parameter_file_for(
     };
     let planning_keys = keys(&PlannerConfig::default());
     let node_keys = keys(&NodeParams::default());
+    // Nav2's plugin ids, whose blocks are keys of their own names.
+    let plugin_ids: Vec<String> = match block.get("planner_plugins") {
+        None => NodeParams::default().planner_plugins,
+        Some(v) => serde_yaml::from_value(v.clone())
+            .map_err(|e| config_err(format!("planner_plugins: {e}")))?,
+    };
     let (mut planning, mut node) = (Mapping::new(), Mapping::new());
+    let (mut plugin_planners, mut warnings) = (BTreeMap::new(), Vec::new());
     for (key, value) in block {
         let name = key.as_str().unwrap_or_default();
-        if planning_keys.iter().any(|k| k == name) {
+        if plugin_ids.iter().any(|id| id == name) {
+            if planning_keys.iter().chain(&node_keys).any(|k| k == name) {
+                return Err(config_err(format!(
+                    "planner_plugins id `{name}` is also a parameter's name"
+                )));
+            }
+            let planner = plugin_block(name, &value, &mut warnings).map_err(config_err)?;
+            plugin_planners.insert(name.to_owned(), planner);
+        } else if planning_keys.iter().any(|k| k == name) {
             planning.insert(key, value);
         } else if node_keys.iter().any(|k| k == name) {
             node.insert(key, value);
+        } else if NAV2_KEYS_IGNORED.contains(&name) {
+            if !(name == "use_sim_time" && value == Value::Bool(false)) {
+                warnings.push(format!(
+                    "ignored Nav2's `{name}`: this node hosts no costmap and stamps with the wall clock"
+                ));
+            }
         } else {
             let mut valid = planning_keys.clone();
             valid.extend(node_keys.iter().cloned());
@@ -228,6 +345,7 @@ pub fn load_parameter_file_for(
     planning.validate().map_err(|e| config_err(e.to_string()))?;
     let mut node: NodeParams =
         serde_yaml::from_value(Value::Mapping(node)).map_err(|e| config_err(e.to_string()))?;
+    node.plugin_planners = plugin_planners;
     node.validate().map_err(config_err)?;
     if !node.map_yaml.is_empty() {
         let p = PathBuf::from(&node.map_yaml);
@@ -240,7 +358,11 @@ pub fn load_parameter_file_for(
                 .into_owned();
         }
     }
-    Ok(ParameterFile { planning, node })
+    Ok(ParameterFile {
+        planning,
+        node,
+        warnings,
+    })
 }
 
 #[cfg(test)]
@@ -267,6 +389,116 @@ mod tests {
             let key = typo.trim().split(':').next().unwrap();
             assert!(err.contains(&format!("`{key}`")), "{err}");
             assert!(err.contains(file), "{err}");
+        }
+    }
+
+    /// Nav2's own planner_server block (Jazzy's nav2_params.yaml) loads as it stands: its plugin
+    /// id answers with the `planner` parameter, what belongs to its C++ plugin and costmap is
+    /// named in the warnings, and an id that is neither a plugin id nor a planner is refused.
+    #[test]
+    fn nav2s_planner_server_block_loads_unedited() {
+        let dir = std::env::temp_dir().join(format!("planner-io-nav2-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("nav2_params.yaml");
+        std::fs::write(
+            &p,
+            "planner_server:\n  ros__parameters:\n    expected_planner_frequency: 20.0\n    \
+             use_sim_time: True\n    costmap_update_timeout: 1.0\n    \
+             planner_plugins: [\"GridBased\"]\n    GridBased:\n      \
+             plugin: \"nav2_navfn_planner/NavfnPlanner\"\n      tolerance: 0.5\n      \
+             use_astar: false\n      allow_unknown: true\n",
+        )
+        .unwrap();
+        let file = load_parameter_file_for(&p, &["planner_server"]).unwrap();
+        let warned = file.warnings.join("\n");
+        for word in [
+            "costmap_update_timeout",
+            "use_sim_time",
+            "nav2_navfn_planner/NavfnPlanner",
+            "tolerance, use_astar, allow_unknown",
+        ] {
+            assert!(warned.contains(word), "{word} not in {warned}");
+        }
+        let node = &file.node;
+        assert_eq!(node.expected_planner_frequency, 20.0);
+        assert_eq!(node.planner_for_id(""), Ok(None));
+        assert_eq!(node.planner_for_id("GridBased"), Ok(None));
+        assert_eq!(node.planner_for_id("astar"), Ok(Some(PlannerName::Astar)));
+        let err = node.planner_for_id("Dijkstra").unwrap_err();
+        assert!(
+            err.contains("GridBased") && err.contains("mocmcso"),
+            "{err}"
+        );
+        // Under a namespace Nav2's launch nests the block: `robot1: planner_server:`.
+        let nested = dir.join("nested.yaml");
+        std::fs::write(
+            &nested,
+            "robot1:\n  planner_server:\n    ros__parameters:\n      planner: astar\n",
+        )
+        .unwrap();
+        let file = load_parameter_file_for(&nested, &["/robot1/planner_server"]).unwrap();
+        assert_eq!(file.planning.planner, PlannerName::Astar);
+    }
+
+    #[test]
+    fn plugin_ids_name_our_planners_and_typos_are_refused() {
+        let p = write(
+            "ids.yaml",
+            "    planner_plugins: [GridBased, Safe, Plain]\n    GridBased: {plugin: astar}\n    \
+             Safe: {plugin: mocmcso}\n",
+        );
+        let file = load_parameter_file(&p).unwrap();
+        assert!(file.warnings.is_empty(), "{:?}", file.warnings);
+        let node = &file.node;
+        assert_eq!(
+            node.planner_for_id("GridBased"),
+            Ok(Some(PlannerName::Astar))
+        );
+        assert_eq!(node.planner_for_id("Safe"), Ok(Some(PlannerName::Mocmcso)));
+        // Listed without a block: the `planner` parameter.
+        assert_eq!(node.planner_for_id("Plain"), Ok(None));
+        // Without `planner_plugins`, Nav2's default id.
+        let file = load_parameter_file(&write("none.yaml", "    planner: astar\n")).unwrap();
+        assert_eq!(file.node.planner_for_id("GridBased"), Ok(None));
+        for (name, block, word) in [
+            (
+                "typo.yaml",
+                "    GridBased: {plugin: mocmsco}\n",
+                "GridBased.plugin",
+            ),
+            (
+                "noplugin.yaml",
+                "    GridBased: {tolerance: 0.5}\n",
+                "GridBased.plugin",
+            ),
+            ("scalar.yaml", "    GridBased: astar\n", "GridBased"),
+            // A block whose id is not listed is a typo like any other key.
+            (
+                "unlisted.yaml",
+                "    Safe: {plugin: astar}\n",
+                "unknown parameter `Safe`",
+            ),
+            (
+                "clash.yaml",
+                "    planner_plugins: [swarm]\n    swarm: {plugin: astar}\n",
+                "also a parameter",
+            ),
+            (
+                "twice.yaml",
+                "    planner_plugins: [A, A]\n",
+                "each id once",
+            ),
+            ("empty.yaml", "    planner_plugins: ['']\n", "none empty"),
+            (
+                "type.yaml",
+                "    planner_plugins: GridBased\n",
+                "planner_plugins",
+            ),
+        ] {
+            let err = load_parameter_file(&write(name, block))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(word), "{name}: {err}");
         }
     }
 

@@ -17,7 +17,6 @@ use patrol_msgs::nav2_msgs::{
 };
 use patrol_msgs::nav_msgs::Path;
 use planner_core::geometry::Pose2;
-use planner_core::PlannerName;
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
 use ros2_client::action_msgs::GoalId;
 use ros2_client::Message;
@@ -231,12 +230,9 @@ async fn run_goal<G: PlannerGoal>(
     if goal.poses().is_empty() {
         return failed(NO_VIAPOINTS_GIVEN, "no goals given".into());
     }
-    let planner = match goal.planner_id() {
-        "" => None,
-        id => match id.parse::<PlannerName>() {
-            Ok(p) => Some(p),
-            Err(e) => return failed(G::CODE_BASE + 1, e.reason),
-        },
+    let planner = match s.params.planner_for_id(goal.planner_id()) {
+        Ok(p) => p,
+        Err(reason) => return failed(G::CODE_BASE + 1, reason),
     };
     let frame = &s.params.global_frame;
     let mut from = if goal.use_start() {

@@ -43,6 +43,9 @@ fn main() -> ExitCode {
         match load_parameter_file_for(&path, &names) {
             Ok(p) => {
                 log::info!("parameters from {}", path.display());
+                for w in &p.warnings {
+                    log::warn!("{}: {w}", path.display());
+                }
                 p
             }
             Err(e) => {

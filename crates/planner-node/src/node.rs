@@ -78,6 +78,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let ParameterFile {
         planning,
         node: params,
+        ..
     } = file;
     let live = Live {
         planner: planning.planner,
