@@ -1,14 +1,14 @@
 """The node as a Nav2 stack uses planner_server, with nav2_msgs built into the test venv
 (tests/build_interfaces.sh): ComputePathToPose as nav2_simple_commander's getPath calls it,
 ComputePathThroughPoses as getPathThroughPoses does, Nav2's error codes, cancel during a slow
-plan, and is_path_valid. The node runs on a domain of its own, with the test map of
+plan, planner ids, the requests FollowWaypoints refuses, and is_path_valid. The node runs on a domain of its own, with the test map of
 test_node.py published on /map (collisions checked with this suite's own code)."""
 import math
 
 import rclpy
 from rclpy.action import ActionClient
 
-from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose
+from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose, FollowWaypoints
 from nav2_msgs.srv import IsPathValid
 from nav_msgs.msg import Path as PathMsg
 
@@ -33,6 +33,7 @@ class Nav2Client:
         self.ros = ros
         self.to_pose = ActionClient(ros.node, ComputePathToPose, "compute_path_to_pose")
         self.through = ActionClient(ros.node, ComputePathThroughPoses, "compute_path_through_poses")
+        self.waypoints = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
         self.valid = ros.node.create_client(IsPathValid, "is_path_valid")
 
     def send(self, client, goal, cancel_after=None, timeout=30):
@@ -146,6 +147,15 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         t.goals = []
         status, result = nav2.send(nav2.through, t)
         assert (status, result.error_code) == (6, 309)
+
+        # follow_waypoints refuses what Nav2's waypoint follower aborts: no waypoints, and a
+        # goal_index past the last one.
+        w = FollowWaypoints.Goal()
+        status, result = nav2.send(nav2.waypoints, w)
+        assert (status, result.error_code) == (6, 600), result.error_msg
+        w.poses, w.goal_index = [stamped(*goal)], 1
+        status, result = nav2.send(nav2.waypoints, w)
+        assert (status, result.error_code) == (6, 600) and "goal_index" in result.error_msg, result.error_msg
 
         # is_path_valid: through the wall invalid with its indices, in free space valid.
         crossing = [world(4.0, 3.0), world(5.5, 3.0), world(7.0, 3.0)]

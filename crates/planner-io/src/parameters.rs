@@ -77,6 +77,10 @@ pub struct NodeParams {
     pub order_waypoints: bool,
     /// follow_waypoints: how long (s) to stay at each waypoint (Nav2's WaitAtWaypoint).
     pub waypoint_pause_duration: f64,
+    /// follow_waypoints: end the patrol, aborted, at the first waypoint it misses (Nav2's
+    /// waypoint_follower parameter, whose default is true); false (a patrol's default): report
+    /// it missed and go on to the next.
+    pub stop_on_failure: bool,
     /// Nav2's `planner_plugins`: the planner ids a ComputePathToPose `planner_id` may name, as
     /// planner_server's behaviour trees send them (`GridBased` by default). Each id may have a
     /// block of its own, `<id>: {plugin: <planner>}`, naming one of this node's planners; an id
@@ -112,6 +116,7 @@ impl Default for NodeParams {
             costmap_topic: String::new(),
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
+            stop_on_failure: false,
             planner_plugins: vec!["GridBased".into()],
             plugin_planners: BTreeMap::new(),
         }

@@ -3,9 +3,11 @@
 //! Held-Karp up to 12 points, 2-opt/Or-opt above, with the driving-time model at the chassis'
 //! limits; `order_waypoints`), then each leg is planned from where the robot is, followed,
 //! finished facing the waypoint's heading, and paused at for `waypoint_pause_duration` (Nav2's
-//! WaitAtWaypoint); `number_of_loops` more passes follow. A waypoint that cannot be planned to or
-//! reached in time is reported missed (its index in the request and the planner's Nav2 code)
-//! and the patrol goes on. Cancel stops the robot within the acceleration limits.
+//! WaitAtWaypoint); `number_of_loops` more passes follow, the first starting at `goal_index` as
+//! Nav2's does. A waypoint that cannot be planned to or reached in time is reported missed (its
+//! index in the request and the planner's Nav2 code) and the patrol goes on, or ends aborted
+//! with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
+//! acceleration limits.
 
 use crate::actions::nav2_code;
 use crate::outputs::Outputs;
@@ -20,8 +22,9 @@ use planner_core::geometry::Pose2;
 use planner_core::route::file::{RouteFile, RoutePoint, RoutePose};
 use planner_core::route::{plan_route, RouteOptions};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
+use ros2_client::action_msgs::GoalId;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// FollowWaypoints' TASK_EXECUTOR_FAILED: the code of a waypoint not reached in time.
@@ -34,7 +37,9 @@ pub type Server =
 pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
     let server = Arc::new(server);
     let newest = Arc::new(AtomicU64::new(0));
-    let canceled = Arc::new(AtomicBool::new(false));
+    // The goals a client has cancelled: each patrol stops on its own id, so that a late cancel of
+    // a preempted patrol cannot stop the one that replaced it.
+    let canceled: Arc<Mutex<Vec<GoalId>>> = Arc::default();
     let cancels = {
         let (server, canceled) = (server.clone(), canceled.clone());
         async move {
@@ -43,9 +48,7 @@ pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
                     continue;
                 };
                 let goals: Vec<_> = handle.goals().collect();
-                if !goals.is_empty() {
-                    canceled.store(true, Ordering::SeqCst);
-                }
+                canceled.lock().expect("lock").extend(goals.iter().copied());
                 if let Err(e) = server
                     .respond_to_cancel_requests(&handle, goals.into_iter())
                     .await
@@ -69,7 +72,8 @@ pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
                 continue;
             }
             let number = newest.fetch_add(1, Ordering::SeqCst) + 1;
-            canceled.store(false, Ordering::SeqCst);
+            // Older patrols stop as preempted; their cancels no longer matter.
+            canceled.lock().expect("lock").clear();
             let Ok(accepted) = server.accept_goal(handle).await else {
                 continue;
             };
@@ -83,10 +87,12 @@ pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
                 newest.clone(),
                 canceled.clone(),
             );
+            let id = executing.goal_id();
             tokio::spawn(async move {
-                let stop = move || {
-                    newest.load(Ordering::SeqCst) != number || canceled.load(Ordering::SeqCst)
-                };
+                let stop: Stop = Arc::new(move || {
+                    newest.load(Ordering::SeqCst) != number
+                        || canceled.lock().expect("lock").contains(&id)
+                });
                 let feedback = |i: u32| {
                     let (server, executing) = (server.clone(), executing.clone());
                     async move {
@@ -100,7 +106,7 @@ pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
                             .await;
                     }
                 };
-                let (status, result) = patrol(&s, &o, &goal, &stop, feedback).await;
+                let (status, result) = patrol(&s, &o, &goal, stop, feedback).await;
                 if let Err(e) = server
                     .send_result_response(executing.clone(), status, result)
                     .await
@@ -114,14 +120,15 @@ pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
 }
 
 /// The order to visit `poses` in from `robot`: the route planner's over the current map, or the
-/// given order when ordering is off or impossible (the reason is logged).
-fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2], first: usize) -> Vec<usize> {
-    let given: Vec<usize> = (first..poses.len()).chain(0..first).collect();
+/// given order when ordering is off or impossible (the reason is logged); and whether it is the
+/// given one.
+fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> (Vec<usize>, bool) {
+    let given: Vec<usize> = (0..poses.len()).collect();
     if !s.params.order_waypoints || poses.len() < 3 {
-        return given;
+        return (given, true);
     }
     let Some(map) = s.map.read().expect("lock").clone() else {
-        return given;
+        return (given, true);
     };
     let file = RouteFile {
         start: Some(RoutePose {
@@ -160,13 +167,36 @@ fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2], first: usize) -> Ve
                 "follow_waypoints: order {order:?} ({:.0} s predicted, {:.0} s in the given order)",
                 plan.total_time_s, plan.given_order_time_s
             );
-            order
+            (order, false)
         }
         Err(e) => {
             warn!("follow_waypoints: keeping the given order: {e}");
-            given
+            (given, true)
         }
     }
+}
+
+/// Whether a patrol is to stop (cancelled or preempted); shared with each leg's planning.
+type Stop = Arc<dyn Fn() -> bool + Send + Sync>;
+
+/// The waypoints of each pass in visiting order, as Nav2's waypoint follower runs them: the
+/// first pass starts at `goal_index` and skips the waypoints before it (in the given order; with
+/// the waypoints reordered, those whose index is below it), the `number_of_loops` passes after it
+/// visit all.
+fn passes(
+    order: &[usize],
+    goal_index: usize,
+    number_of_loops: u32,
+    given_order: bool,
+) -> Vec<Vec<usize>> {
+    let first: Vec<usize> = if given_order {
+        order[goal_index.min(order.len())..].to_vec()
+    } else {
+        order.iter().copied().filter(|&i| i >= goal_index).collect()
+    };
+    std::iter::once(first)
+        .chain((0..number_of_loops).map(|_| order.to_vec()))
+        .collect()
 }
 
 /// One patrol: every pass, every waypoint in order.
@@ -174,7 +204,7 @@ async fn patrol<F, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,
     goal: &FollowWaypointsGoal,
-    stop: &(dyn Fn() -> bool + Send + Sync),
+    stop: Stop,
     feedback: F,
 ) -> (GoalEndStatus, FollowWaypointsResult)
 where
@@ -194,9 +224,20 @@ where
             }
         }
     }
+    // Nav2's waypoint follower aborts both.
     if poses.is_empty() {
+        result.error_code = 600;
         result.error_msg = "no waypoints given".into();
-        return (GoalEndStatus::Succeeded, result);
+        return (GoalEndStatus::Aborted, result);
+    }
+    if goal.goal_index as usize >= poses.len() {
+        result.error_code = 600;
+        result.error_msg = format!(
+            "goal_index {} is past the last of {} waypoints",
+            goal.goal_index,
+            poses.len()
+        );
+        return (GoalEndStatus::Aborted, result);
     }
     // A patrol sent right after start-up may arrive before the first pose: wait a little for it,
     // as Nav2 waits for its transform.
@@ -209,11 +250,19 @@ where
         result.error_msg = "no robot pose yet: publish /initialpose, /amcl_pose or /odom".into();
         return (GoalEndStatus::Aborted, result);
     };
-    let first = (goal.goal_index as usize).min(poses.len() - 1);
-    let order = visiting_order(s, robot, &poses, first);
+    let (order, given) = visiting_order(s, robot, &poses);
     let tolerance = s.live.read().expect("lock").tolerance;
-    for pass in 0..=goal.number_of_loops {
-        for &i in &order {
+    let stop_on_failure = s.params.stop_on_failure;
+    for (pass, order) in passes(
+        &order,
+        goal.goal_index as usize,
+        goal.number_of_loops,
+        given,
+    )
+    .into_iter()
+    .enumerate()
+    {
+        for i in order {
             if stop() {
                 brake(s);
                 return (GoalEndStatus::Canceled, result);
@@ -226,10 +275,10 @@ where
             };
             let from = s.start.read().expect("lock").map_or(robot, |(p, _)| p);
             let stop_leg = {
-                // The leg's plan stops with the patrol.
-                let s2 = s.clone();
+                // The leg's plan stops with the patrol, and for a newer goal of another kind.
+                let (s2, stop) = (s.clone(), stop.clone());
                 let started = s2.goals.load(Ordering::SeqCst);
-                move || s2.goals.load(Ordering::SeqCst) != started
+                move || stop() || s2.goals.load(Ordering::SeqCst) != started
             };
             let outcome =
                 planning::plan_off_thread(s, from, poses[i], tolerance, None, stop_leg).await;
@@ -240,8 +289,15 @@ where
                     .as_ref()
                     .err()
                     .map_or(0, |f| nav2_code(f.code, 200));
+                if stop() {
+                    brake(s);
+                    return (GoalEndStatus::Canceled, result);
+                }
                 warn!("follow_waypoints: pass {pass}, waypoint {i} missed: cannot plan to it");
                 result.missed_waypoints.push(missed(code));
+                if stop_on_failure {
+                    return failed(result, i);
+                }
                 continue;
             };
             let points: Vec<(f64, f64)> = path
@@ -285,6 +341,9 @@ where
             if !reached {
                 warn!("follow_waypoints: pass {pass}, waypoint {i} not reached");
                 result.missed_waypoints.push(missed(NOT_REACHED));
+                if stop_on_failure {
+                    return failed(result, i);
+                }
                 continue;
             }
             info!("follow_waypoints: pass {pass}, waypoint {i} reached");
@@ -301,8 +360,37 @@ where
     (GoalEndStatus::Succeeded, result)
 }
 
+/// A patrol ended at its first missed waypoint (`stop_on_failure`), as Nav2's ends: aborted,
+/// with the missed waypoints so far.
+fn failed(mut result: FollowWaypointsResult, i: usize) -> (GoalEndStatus, FollowWaypointsResult) {
+    result.error_code = result.missed_waypoints.last().map_or(600, |m| m.error_code);
+    result.error_msg = format!("waypoint {i} missed and stop_on_failure is set");
+    (GoalEndStatus::Aborted, result)
+}
+
 /// Ends the drive: the follower loop brakes within the acceleration limits to a stop.
 fn brake(s: &Shared) {
     *s.follower.lock().expect("lock") = None;
     *s.followed.lock().expect("lock") = None;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::passes;
+
+    #[test]
+    fn the_first_pass_starts_at_goal_index_and_later_passes_visit_all() {
+        // The given order: the first pass runs from goal_index to the end, as Nav2's does.
+        assert_eq!(
+            passes(&[0, 1, 2, 3], 2, 1, true),
+            vec![vec![2, 3], vec![0, 1, 2, 3]]
+        );
+        assert_eq!(passes(&[0, 1, 2], 0, 0, true), vec![vec![0, 1, 2]]);
+        // Reordered: the waypoints before goal_index in the request are left out of the first
+        // pass, wherever the order puts them.
+        assert_eq!(
+            passes(&[3, 0, 2, 1], 2, 2, false),
+            vec![vec![3, 2], vec![3, 0, 2, 1], vec![3, 0, 2, 1]]
+        );
+    }
 }
