@@ -28,7 +28,8 @@ pub struct BenchArgs {
     /// Draw this many start/goal pairs on each `--map` instead of reading scenario files: free
     /// cells with a cost below 210, 5 % of the map away from its border, more than 3 m apart
     /// (Nav2's planner benchmark rules).
-    #[arg(long, requires = "map", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, requires = "map", conflicts_with_all = ["scenarios", "only"],
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub random: Option<u32>,
     /// The seed of those draws.
     #[arg(long, default_value_t = 33, requires = "random")]
@@ -40,7 +41,7 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_value = "astar,any_angle")]
     pub planners: Vec<PlannerName>,
     /// Runs per planner and scenario (seeds 0..runs-1).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1_000))]
     pub runs: u64,
     /// Only these scenario names (comma-separated); default all.
     #[arg(long, value_delimiter = ',')]
@@ -91,8 +92,11 @@ pub struct Row {
     /// Mean iteration at which the best value last improved (population methods).
     pub best_iteration_mean: Option<f64>,
     pub reference_length_m: Option<f64>,
-    /// False only where A* (seed 0) answered NO_VALID_PATH: there every planner should too.
+    /// False only where A* (seed 0) answered the query itself, with NO_VALID_PATH or a refusal
+    /// of its start or goal (off the map, on an obstacle): there every planner should too.
     pub astar_found_path: bool,
+    /// That answer of A*'s (`NO_VALID_PATH (208): ...`), when it gave one.
+    pub astar_failure: Option<String>,
     /// Runs whose answer is better than the planner's seed path: shorter or smoother, worse on
     /// neither, both finished alike (counter `improved_on_seed`, from the planners that start
     /// from a seed).
@@ -209,6 +213,31 @@ fn jobs(args: &BenchArgs) -> Result<Vec<(String, Workspace, Vec<Job>)>> {
             .collect();
         jobs.push((stem(&map_path), ws, scenarios));
     }
+    // `--only` names scenarios: one that no file has is a typo, not an empty table.
+    let unknown: Vec<&String> = args
+        .only
+        .iter()
+        .filter(|name| {
+            !jobs
+                .iter()
+                .any(|(_, _, js)| js.iter().any(|j| &j.name == *name))
+        })
+        .collect();
+    if !unknown.is_empty() {
+        anyhow::bail!(
+            "--only: no scenario named {} in {}",
+            unknown
+                .iter()
+                .map(|n| format!("`{n}`"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            args.scenarios
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     Ok(jobs)
 }
 
@@ -228,10 +257,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let query = ws.query(sc.start, sc.goal);
             bar.set_message(format!("{map_name}/{} reference", sc.name));
             let astar = ws.run(PlannerName::Astar, &query, 0)?.0;
-            // Unsolvable only where A* says there is no path (not where it timed out or was
-            // refused for its size).
-            let astar_found_path =
-                !matches!(astar, Err(planner_core::planner::PlanError::NoValidPath(_)));
+            // Unsolvable where A* answers the query itself: no path, or an end off the map or
+            // on an obstacle (not where it timed out or was refused for its size). Every
+            // planner is to answer such a query as A* does.
+            let astar_failure = astar
+                .as_ref()
+                .err()
+                .filter(|e| answers_the_query(e))
+                .map(crate::run::failure_line);
+            let astar_found_path = astar_failure.is_none();
             let astar = astar.ok();
             // The hypervolume's units: A*'s length and turning on this query.
             let units = astar
@@ -329,6 +363,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     best_iteration_mean: mean(&best_it),
                     reference_length_m: reference,
                     astar_found_path,
+                    astar_failure: astar_failure.clone(),
                     apf_fallbacks: fallbacks,
                     hypervolume_median: (!volumes.is_empty()).then(|| median(volumes)),
                     improved_on_seed: improved,
@@ -344,16 +379,39 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
     }
     bar.finish_and_clear();
-    let json = serde_json::to_string_pretty(&rows)?;
+    // Written as it is serialised: a large run's JSON is never held whole in memory.
+    let write = |w: &mut dyn std::io::Write| -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(w);
+        serde_json::to_writer_pretty(&mut w, &rows)?;
+        std::io::Write::write_all(&mut w, b"\n")?;
+        std::io::Write::flush(&mut w)
+    };
     match &args.json {
-        Some(p) => std::fs::write(p, json).with_context(|| format!("writing {}", p.display()))?,
-        None => println!("{json}"),
+        Some(p) => std::fs::File::create(p)
+            .and_then(|mut f| write(&mut f))
+            .with_context(|| format!("writing {}", p.display()))?,
+        None => write(&mut std::io::stdout().lock()).context("writing standard output")?,
     }
     if let Some(p) = &args.markdown {
         std::fs::write(p, markdown(&rows, args))
             .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
+}
+
+/// Whether a failure is an answer to the query itself (no path, an end off the map or on an
+/// obstacle, a malformed query) rather than to the run (a deadline, the memory cap).
+fn answers_the_query(e: &planner_core::planner::PlanError) -> bool {
+    use planner_io::result_code::ResultCode as R;
+    matches!(
+        R::from(e),
+        R::NoValidPath
+            | R::StartOutsideMap
+            | R::GoalOutsideMap
+            | R::StartOccupied
+            | R::GoalOccupied
+            | R::InvalidInput
+    )
 }
 
 /// One line per map and planner: how it answered the queries A* solved and those it did not,
@@ -367,11 +425,11 @@ fn summary(s: &mut String, rows: &[Row]) {
     }
     let _ = writeln!(
         s,
-        "Summary per map and planner (queries where A* found a path: runs that succeeded, with a collision-free path; where it found none: runs that answered NO_VALID_PATH; means over the solvable queries' rows):\n"
+        "Summary per map and planner (queries where A* found a path: runs that succeeded, with a collision-free path; where it found none, or refused the query: runs that answered as A* did, NO_VALID_PATH or the refusal's code; means over the solvable queries' rows):\n"
     );
     let _ = writeln!(
         s,
-        "| map | planner | solvable: ok | collision-free | unsolvable: NO_VALID_PATH | length vs any-angle | turning (rad) | mean clearance (m) | median time vs A* | improved on seed | hypervolume (median of rows) |"
+        "| map | planner | solvable: ok | collision-free | unsolvable: A*'s answer | length vs any-angle | turning (rad) | mean clearance (m) | median time vs A* | improved on seed | hypervolume (median of rows) |"
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
     for (map, planner) in keys {
@@ -387,11 +445,15 @@ fn summary(s: &mut String, rows: &[Row]) {
         let refused: u64 = unsolvable
             .iter()
             .map(|r| {
-                let no_path = r
-                    .failure
-                    .as_deref()
-                    .is_some_and(|f| f.starts_with("no valid path"));
-                if r.successes == 0 && no_path {
+                let code = |f: &Option<String>| {
+                    f.as_deref()
+                        .and_then(|f| f.split(" (").next())
+                        .map(str::to_owned)
+                };
+                if r.successes == 0
+                    && code(&r.failure).is_some()
+                    && code(&r.failure) == code(&r.astar_failure)
+                {
                     r.runs
                 } else {
                     0

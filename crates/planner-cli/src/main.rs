@@ -1,6 +1,16 @@
 //! `patrol-plan`: run patrol-planner's planners from the command line — one plan, a benchmark
 //! table, a picture, or a check of A* against the Moving AI benchmarks' optimal lengths.
 
+/// `println!` for what the command prints: a failed write (a full disk) is an error that says
+/// so, not a panic. A closed pipe still ends the process quietly (SIGPIPE, see `main`).
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+            .map_err(|e| anyhow::anyhow!("writing standard output: {e}"))?
+    }};
+}
+
 mod bench;
 mod movingai;
 mod render;
@@ -167,7 +177,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Route(args) => route::run(&args),
         Command::Planners => {
             for name in planner_core::PlannerName::ALL {
-                println!("{name}");
+                out!("{name}");
             }
             Ok(())
         }

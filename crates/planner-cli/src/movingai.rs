@@ -62,21 +62,22 @@ pub fn run(map_path: &Path, scen_path: &Path, sample: Option<usize>) -> Result<u
             Ok(()) => passed += 1,
             Err(why) => {
                 failed += 1;
-                println!(
+                out!(
                     "FAIL {name} scenario {i} ({:?} -> {:?}): {why}",
-                    s.start, s.goal
+                    s.start,
+                    s.goal
                 );
             }
         }
     }
     if passed + failed < scenarios.len() {
-        println!(
+        out!(
             "(a sample: {} of the file's {} scenarios, evenly spaced by length)",
             passed + failed,
             scenarios.len()
         );
     }
-    println!("{passed} passed, {failed} failed");
+    out!("{passed} passed, {failed} failed");
     Ok(failed)
 }
 

@@ -60,7 +60,7 @@ struct RouteOutput<'a> {
 }
 
 fn read_route(path: &Path) -> Result<RouteFile> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let bytes = planner_io::read(path)?;
     RouteFile::parse(&bytes).with_context(|| path.display().to_string())
 }
 
@@ -123,7 +123,7 @@ fn random_routes(args: &RouteArgs, n: usize) -> Result<()> {
             .fold(f64::INFINITY, f64::min),
         "per_route": routes,
     });
-    println!("{}", serde_json::to_string(&out)?);
+    out!("{}", serde_json::to_string(&out)?);
     Ok(())
 }
 
@@ -175,7 +175,7 @@ pub fn run(args: &RouteArgs) -> Result<()> {
         time_ms: t0.elapsed().as_secs_f64() * 1e3,
         plan: &plan,
     };
-    println!("{}", serde_json::to_string(&out)?);
+    out!("{}", serde_json::to_string(&out)?);
     for note in &plan.notes {
         eprintln!("note: {note}");
     }

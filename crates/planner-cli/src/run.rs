@@ -192,7 +192,7 @@ pub fn plan_command(
                 error_name: code.name(),
                 error_msg: e.to_string(),
             };
-            println!("{}", serde_json::to_string(&out)?);
+            out!("{}", serde_json::to_string(&out)?);
             bail!(
                 "{planner} could not plan from {start:?} to {goal:?}: {}",
                 failure_line(&e)
@@ -229,7 +229,7 @@ pub fn plan_command(
             .collect(),
         waypoints: plan.waypoints.iter().map(|p| [p.x, p.y]).collect(),
     };
-    println!("{}", serde_json::to_string(&out)?);
+    out!("{}", serde_json::to_string(&out)?);
     if let Some(svg) = svg {
         let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
         if let Some(r) = &reference {
@@ -274,9 +274,11 @@ pub fn render_command(
     let ws = Workspace::load(map_path, load_config(config)?)?;
     let query = ws.query(start, goal);
     let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
+    let mut answered = 0;
     for name in planners {
         match ws.run(*name, &query, seed)?.0 {
             Ok(plan) => {
+                answered += 1;
                 eprintln!(
                     "{name}: {:.3} m, {:.3} rad, {} turns, collision-free: {}",
                     plan.metrics.length_m,
@@ -292,5 +294,9 @@ pub fn render_command(
     drawing.add(Layer::endpoints(query.start, query.goal));
     std::fs::write(out, drawing.to_svg()).with_context(|| format!("writing {}", out.display()))?;
     eprintln!("wrote {}", out.display());
+    // The drawing still shows the map and the query, which is often why; but the command failed.
+    if answered == 0 {
+        bail!("no planner answered (the reasons are above)");
+    }
     Ok(())
 }

@@ -316,3 +316,91 @@ fn plan_prints_the_termination() {
         );
     }
 }
+
+/// Queries A* answers itself (no path across a wall; a goal off the map) are the bench's
+/// unsolvable ones, and its summary counts a planner's runs that answer them as A* does; a NaN
+/// in the scenario file, `--only` naming no scenario and `--runs 0` are refused.
+#[test]
+fn bench_counts_the_answers_to_unsolvable_queries() {
+    let dir = std::env::temp_dir().join(format!("patrol-plan-split-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // 50 x 50 cells of 0.2 m, free but for a wall across the middle (columns 24 and 25).
+    let mut pgm = b"P5\n50 50\n255\n".to_vec();
+    for _ in 0..50 {
+        pgm.extend((0..50).map(|x| if x == 24 || x == 25 { 0u8 } else { 254 }));
+    }
+    std::fs::write(dir.join("split.pgm"), pgm).unwrap();
+    std::fs::write(
+        dir.join("split.yaml"),
+        "image: split.pgm\nresolution: 0.2\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n\
+         occupied_thresh: 0.65\nfree_thresh: 0.196\n",
+    )
+    .unwrap();
+    let scen = dir.join("split.scen.yaml");
+    std::fs::write(
+        &scen,
+        "map: split.yaml\nscenarios:\n  - {name: cut, start: [1.5, 5.0], goal: [8.5, 5.0]}\n  \
+         - {name: ok, start: [1.5, 5.0], goal: [1.5, 8.0]}\n  \
+         - {name: off, start: [1.5, 5.0], goal: [80.0, 5.0]}\n",
+    )
+    .unwrap();
+    let (json, md) = (dir.join("s.json"), dir.join("s.md"));
+    let (ok, _, stderr) = patrol_plan(&[
+        "bench",
+        "--scenarios",
+        scen.to_str().unwrap(),
+        "--planners",
+        "astar,any_angle",
+        "--runs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+        "--markdown",
+        md.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for r in &rows {
+        let unsolvable = r["scenario"] != "ok";
+        assert_eq!(r["astar_found_path"], !unsolvable, "{r}");
+        assert_eq!(r["astar_failure"].is_string(), unsolvable, "{r}");
+    }
+    let table = std::fs::read_to_string(&md).unwrap();
+    for planner in ["astar", "any_angle"] {
+        let line = format!("| split | {planner} | 2/2 | 2 | 4/4 |");
+        assert!(table.contains(&line), "{line} not in\n{table}");
+    }
+    // Refused up front: a coordinate that is no number, a typo in --only, no runs.
+    let nan = dir.join("nan.scen.yaml");
+    std::fs::write(
+        &nan,
+        "map: split.yaml\nscenarios:\n  - {name: a, start: [.nan, 5.0], goal: [8.5, 5.0]}\n",
+    )
+    .unwrap();
+    let (ok, _, stderr) = patrol_plan(&["bench", "--scenarios", nan.to_str().unwrap()]);
+    assert!(!ok && stderr.contains("not a finite number"), "{stderr}");
+    let s = scen.to_str().unwrap();
+    let (ok, _, stderr) = patrol_plan(&["bench", "--scenarios", s, "--only", "nosuch"]);
+    assert!(!ok && stderr.contains("`nosuch`"), "{stderr}");
+    let (ok, _, stderr) = patrol_plan(&["bench", "--scenarios", s, "--runs", "0"]);
+    assert!(!ok && stderr.contains("--runs"), "{stderr}");
+}
+
+/// What the command prints goes to standard output; a write that fails (a full disk) is an
+/// error that says so and a failed exit, not a panic with a backtrace.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_disk_on_standard_output_is_an_error_not_a_panic() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_patrol-plan"))
+        .arg("planners")
+        .stdout(std::fs::File::create("/dev/full").unwrap())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("writing standard output") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}

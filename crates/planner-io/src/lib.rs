@@ -33,7 +33,9 @@ pub enum LoadError {
 /// before it is read, so no file can exhaust memory.
 pub const MAX_FILE_BYTES: u64 = 256 << 20;
 
-fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
+/// A whole input file, refused before it is read when it is not a regular file or is larger
+/// than [`MAX_FILE_BYTES`]; every loader here reads through it, and so should any other.
+pub fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
     use std::io::Read;
     let io = |reason| LoadError::Io {
         path: path.to_owned(),

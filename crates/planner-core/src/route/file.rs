@@ -71,6 +71,9 @@ pub struct RouteFile {
     pub points: Vec<RoutePoint>,
 }
 
+/// The longest stay at a point (s): a day. A longer one is a typo, and sums of them overflow.
+pub const MAX_DWELL_S: f64 = 86_400.0;
+
 /// What can be wrong with a route, or keep it from being planned at all.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -93,8 +96,8 @@ pub enum RouteError {
         field: &'static str,
         value: f64,
     },
-    #[error("point `{name}`: dwell {dwell} s is negative")]
-    NegativeDwell { name: String, dwell: f64 },
+    #[error("point `{name}`: dwell {dwell} s is outside 0..={MAX_DWELL_S} s")]
+    DwellOutOfRange { name: String, dwell: f64 },
     #[error("home `{0}` is not the name of a point of the route")]
     UnknownHome(String),
     #[error("a closed loop ends where it starts: `home` is for open routes")]
@@ -167,8 +170,8 @@ impl RouteFile {
                 &what,
                 &[("x", p.x), ("y", p.y), ("yaw", p.yaw), ("dwell", p.dwell)],
             )?;
-            if p.dwell < 0.0 {
-                return Err(RouteError::NegativeDwell {
+            if !(0.0..=MAX_DWELL_S).contains(&p.dwell) {
+                return Err(RouteError::DwellOutOfRange {
                     name: p.name.clone(),
                     dwell: p.dwell,
                 });
@@ -223,8 +226,9 @@ mod tests {
             ("points: [{name: a, x: .nan, y: 2, yaw: 0, dwell: 5}]", "point `a`: x is NaN"),
             ("points: [{name: a, x: 1, y: 2, yaw: .inf, dwell: 5}]", "point `a`: yaw is inf"),
             ("points: [{name: a, x: 1, y: 2, yaw: 0, dwell: .nan}]", "point `a`: dwell is NaN"),
+            ("points: [{name: a, x: 1, y: 2, yaw: 0, dwell: 1e308}]", "s is outside 0..=86400 s"),
+            ("points: [{name: a, x: 1, y: 2, yaw: 0, dwell: -1}]", "point `a`: dwell -1 s is outside"),
             ("start: {x: 0, y: -.inf, yaw: 0}\npoints: [{name: a, x: 1, y: 2, yaw: 0, dwell: 5}]", "start: y is -inf"),
-            ("points: [{name: a, x: 1, y: 2, yaw: 0, dwell: -1}]", "dwell -1 s is negative"),
             ("home: dock\npoints: [{name: a, x: 1, y: 2, yaw: 0, dwell: 1}]", "home `dock` is not the name"),
             ("start: {x: 0, y: 0, yaw: 0}\npoints: [{name: start, x: 1, y: 2, yaw: 0, dwell: 1}]", "named `start`"),
         ];

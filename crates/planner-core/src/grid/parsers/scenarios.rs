@@ -40,13 +40,48 @@ impl ScenarioFile {
     pub fn parse(text: &[u8]) -> Result<Self, MapError> {
         super::yaml_guard::check(text)
             .map_err(|e| MapError::Format(format!("scenario file: {e}")))?;
-        serde_yaml::from_slice(text).map_err(|e| MapError::Format(format!("scenario file: {e}")))
+        let file: Self = serde_yaml::from_slice(text)
+            .map_err(|e| MapError::Format(format!("scenario file: {e}")))?;
+        if file.scenarios.is_empty() {
+            return Err(MapError::Format("scenario file: no scenarios".into()));
+        }
+        // A query off the map or on an obstacle is a query like any other (the planners answer
+        // it with their codes); a coordinate that is no number is not.
+        if let Some(s) = file
+            .scenarios
+            .iter()
+            .find(|s| !s.start.iter().chain(&s.goal).all(|v| v.is_finite()))
+        {
+            return Err(MapError::Format(format!(
+                "scenario file: `{}` has a start or goal that is not a finite number: {:?} -> {:?}",
+                s.name, s.start, s.goal
+            )));
+        }
+        Ok(file)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refuses_no_scenarios_and_coordinates_that_are_no_numbers() {
+        for (text, word) in [
+            (&b"map: m.yaml\nscenarios: []\n"[..], "no scenarios"),
+            (
+                b"map: m.yaml\nscenarios:\n  - {name: a, start: [.nan, 1], goal: [3, 4]}\n",
+                "`a`",
+            ),
+            (
+                b"map: m.yaml\nscenarios:\n  - {name: b, start: [1, 1], goal: [.inf, 4]}\n",
+                "`b`",
+            ),
+        ] {
+            let err = ScenarioFile::parse(text).unwrap_err().to_string();
+            assert!(err.contains(word), "{err}");
+        }
+    }
 
     #[test]
     fn parses_the_bench_layout() {
