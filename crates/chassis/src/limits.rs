@@ -49,7 +49,7 @@ impl TwistLimits {
         }
     }
 
-    /// Whether every limit is a finite non-negative number.
+    /// Whether every limit is a finite positive number (a limit of 0 would forbid every motion).
     pub fn is_valid(&self) -> bool {
         [
             self.max_linear,
@@ -58,7 +58,7 @@ impl TwistLimits {
             self.max_angular_accel,
         ]
         .iter()
-        .all(|v| v.is_finite() && *v >= 0.0)
+        .all(|v| v.is_finite() && *v > 0.0)
     }
 
     /// The command to apply: `cmd` clamped to the speed limits and, from `previous` over `dt`

@@ -96,8 +96,9 @@ impl Default for PlannerConfig {
 
 impl PlannerConfig {
     pub fn validate(&self) -> Result<(), ParamError> {
+        // Metres a goal or start may move to a free cell: a kilometre is past any map's use.
         check(
-            Range::NonNegative,
+            Range::Within(0.0, 1_000.0),
             &[
                 ("tolerance", self.tolerance),
                 ("start_tolerance", self.start_tolerance),
@@ -182,11 +183,35 @@ mod tests {
             ("apf", "sweep_step_deg", "1.0e-300"),
             ("apf", "stall_window", "18446744073709551615"),
             ("apf", "step_budget_factor", "1.0e12"),
+            // Exponents and weights that overflowed into no answer (a colony whose every
+            // heuristic was infinite), radii and factors past any map's use.
+            ("colony", "beta", "1.0e308"),
+            ("colony", "alpha", "1.0e308"),
+            ("colony", "delta", "1.0e308"),
+            ("colony", "band", "1.0e308"),
+            ("search", "cost_travel_multiplier", "1.0e308"),
+            // A schedule that climbs instead of falling.
+            ("swarm", "mr_max", "0.1\n  mr_min: 0.5"),
+            ("swarm", "inertia_max", "0.1\n  inertia_min: 0.5"),
         ] {
             let yaml = format!("{section}:\n  {key}: {value}\n");
             let config: PlannerConfig = serde_yaml::from_str(&yaml).unwrap();
             let err = config.validate().unwrap_err();
             assert_eq!(err.name, format!("{section}.{key}"), "{yaml}");
+        }
+        for (key, value) in [
+            ("robot_radius", "1.0e308"),
+            ("inflation_radius", "1.0e9"),
+            ("cost_scaling_factor", "1.0e308"),
+            ("occupied_threshold", "0"),
+        ] {
+            let yaml = format!("costmap:\n  {key}: {value}\n");
+            let config: PlannerConfig = serde_yaml::from_str(&yaml).unwrap();
+            assert_eq!(config.validate().unwrap_err().name, key, "{yaml}");
+        }
+        for key in ["tolerance", "start_tolerance"] {
+            let config: PlannerConfig = serde_yaml::from_str(&format!("{key}: 1.0e308\n")).unwrap();
+            assert_eq!(config.validate().unwrap_err().name, key);
         }
         let day: PlannerConfig = serde_yaml::from_str("max_planning_time: 1.0e19\n").unwrap();
         assert_eq!(day.validate().unwrap_err().name, "max_planning_time");

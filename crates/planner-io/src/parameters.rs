@@ -523,5 +523,11 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("control_rate_hz"));
+        // A speed limit of 0 forbids every motion: refused as a negative one is.
+        let still = write("still.yaml", "    twist_limits: {max_linear: 0.0}\n");
+        assert!(load_parameter_file(&still)
+            .unwrap_err()
+            .to_string()
+            .contains("twist_limits"));
     }
 }

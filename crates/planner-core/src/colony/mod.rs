@@ -188,19 +188,27 @@ impl ColonyParams {
         check(
             Range::Positive,
             &[
-                ("colony.delta", self.delta),
                 ("colony.initial_pheromone", self.initial_pheromone),
-                ("colony.band", self.band),
                 ("colony.tau_min", self.tau_min),
             ],
         )?;
+        // Eq. 13 raises these to the weights below: bounded so that no product overflows (a
+        // beta of 1e308 made every heuristic infinite and no ant could choose).
         check(
-            Range::NonNegative,
-            &[
-                ("colony.alpha", self.alpha),
-                ("colony.beta", self.beta),
-                ("colony.cost_weight", self.cost_weight),
-            ],
+            Range::PositiveUpTo(1_000.0),
+            &[("colony.delta", self.delta)],
+        )?;
+        check(
+            Range::PositiveUpTo(100_000.0),
+            &[("colony.band", self.band)],
+        )?;
+        check(
+            Range::Within(0.0, 50.0),
+            &[("colony.alpha", self.alpha), ("colony.beta", self.beta)],
+        )?;
+        check(
+            Range::Within(0.0, 1_000.0),
+            &[("colony.cost_weight", self.cost_weight)],
         )
     }
 }

@@ -187,7 +187,13 @@ impl<'a> PotentialField<'a> {
             return 1.0;
         }
         let d2 = ((p - self.goal) * self.grid.resolution()).norm_squared();
-        1.0 - (-d2 / self.params.radius().powi(2)).exp()
+        let r2 = self.params.radius().powi(2);
+        if r2 <= 0.0 {
+            // A point robot (`costmap.robot_radius: 0`, which the field inherits): the factor's
+            // limit, 0 at the goal and 1 elsewhere, not 0 / 0 at the goal.
+            return if d2 > 0.0 { 1.0 } else { 0.0 };
+        }
+        1.0 - (-d2 / r2).exp()
     }
 
     /// The potential of eq. 7 (with eq. 9's repulsion) at a cell, attracted towards `target`
@@ -782,6 +788,24 @@ mod tests {
         assert!(admissible_moves(&grid, goal).all(|n| field.potential(n) > 0.0));
         // And away from the goal the factor tends to 1.
         assert!(field.goal_factor(Cell::new(3, 2).center()) > 0.99);
+    }
+
+    /// A point robot (radius 0, as `costmap.robot_radius: 0` hands down): eq. 9's factor is
+    /// its limit, not 0 / 0 at the goal, whose NaN potential had kept every ant of `aco_apf`
+    /// from ever choosing the goal.
+    #[test]
+    fn eq9_factor_of_a_point_robot_is_its_limit() {
+        let grid = grid_from_rows(&["....", "..#.", "...."]);
+        let params = ApfParams {
+            chassis_radius: Some(0.0),
+            ..ApfParams::default()
+        };
+        let goal = Cell::new(1, 1);
+        let field = PotentialField::new(&grid, &params, goal.center());
+        assert_eq!(field.goal_factor(goal.center()), 0.0);
+        assert_eq!(field.goal_factor(Cell::new(0, 1).center()), 1.0);
+        assert_eq!(field.potential(goal), 0.0);
+        assert!(admissible_moves(&grid, goal).all(|n| field.potential(n).is_finite()));
     }
 
     #[test]

@@ -84,23 +84,25 @@ impl InflationConfig {
     }
 
     pub fn validate(&self) -> Result<(), ParamError> {
+        // Metres: no robot or inflation is 100 m wide, and a radius of 1e308 overflows the
+        // cells it is measured in.
         check(
-            Range::NonNegative,
+            Range::Within(0.0, 100.0),
             &[
                 ("robot_radius", self.robot_radius),
                 ("safety_margin", self.safety_margin),
                 ("inflation_radius", self.inflation_radius),
-                ("cost_scaling_factor", self.cost_scaling_factor),
             ],
         )?;
         check(
-            Range::NonNegative,
-            &[("occupied_threshold", self.occupied_threshold as f64)],
+            Range::Within(0.0, 1_000.0),
+            &[("cost_scaling_factor", self.cost_scaling_factor)],
         )?;
-        if self.occupied_threshold > 100 {
+        // An occupancy of at least this is an obstacle: 0 would make every known cell one.
+        if !(1..=100).contains(&self.occupied_threshold) {
             return Err(ParamError::new(
                 "occupied_threshold",
-                format!("{} is above 100", self.occupied_threshold),
+                format!("{} is not within 1..=100", self.occupied_threshold),
             ));
         }
         Ok(())

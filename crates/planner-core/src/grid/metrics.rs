@@ -42,7 +42,10 @@ pub struct PathMetrics {
 
 /// Sum of segment lengths, in the points' own unit.
 pub fn path_length(points: &[Point2]) -> f64 {
-    points.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+    // From +0.0, as `total_turning`: a one-point path is 0 m long, not -0 m.
+    points
+        .windows(2)
+        .fold(0.0, |total, w| total + (w[1] - w[0]).norm())
 }
 
 /// The headings of the non-degenerate segments of a polyline.
@@ -58,7 +61,8 @@ fn headings(points: &[Point2]) -> impl Iterator<Item = f64> + '_ {
 /// not monotone along the start-goal axis are measured correctly too. Zero-length segments are
 /// skipped (they have no heading).
 pub fn total_turning(points: &[Point2]) -> f64 {
-    heading_changes(points).map(f64::abs).sum()
+    // From +0.0: `sum()` of no floats is -0.0, which a straight path's JSON then showed.
+    heading_changes(points).fold(0.0, |total, d| total + d.abs())
 }
 
 /// Number of heading changes larger than [`TURN_EPS`].
@@ -263,10 +267,9 @@ pub fn corridor_half_width(grid: &PlanningGrid, points: &[Point2]) -> f64 {
 /// The costmap cost integrated along a polyline (grid coordinates): `sum cost / 252 * ds`, in
 /// metres.
 pub fn path_cost(grid: &PlanningGrid, points: &[Point2]) -> f64 {
-    samples(points, 0.25)
-        .map(|(c, ds)| grid.cost(c) as f64 / 252.0 * ds)
-        .sum::<f64>()
-        * grid.resolution()
+    samples(points, 0.25).fold(0.0, |total, (c, ds)| {
+        total + grid.cost(c) as f64 / 252.0 * ds
+    }) * grid.resolution()
 }
 
 /// All metrics of a polyline given in grid coordinates; lengths are reported in metres.

@@ -34,8 +34,9 @@ impl Default for SearchParams {
 
 impl SearchParams {
     pub fn validate(&self) -> Result<(), ParamError> {
+        // Nav2's Smac planners document 0-10ish; past 1000 the cost swamps any length.
         check(
-            Range::NonNegative,
+            Range::Within(0.0, 1_000.0),
             &[("search.cost_travel_multiplier", self.cost_travel_multiplier)],
         )
     }

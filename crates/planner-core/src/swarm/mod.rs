@@ -232,7 +232,25 @@ impl SwarmParams {
                 ("swarm.safety_seed_multiplier", self.safety_seed_multiplier),
                 ("swarm.corridor", self.corridor),
             ],
-        )
+        )?;
+        // Eq. 12 and the tracing inertia fall from the first to the second.
+        for (hi, lo, vh, vl) in [
+            ("swarm.mr_max", "swarm.mr_min", self.mr_max, self.mr_min),
+            (
+                "swarm.inertia_max",
+                "swarm.inertia_min",
+                self.inertia_max,
+                self.inertia_min,
+            ),
+        ] {
+            if vh < vl {
+                return Err(ParamError::new(
+                    hi,
+                    format!("{vh:?} is below {lo} ({vl:?}): the value falls from {hi} to {lo}"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Eq. 12: the mixture ratio at iteration `t` of `it_max`.
