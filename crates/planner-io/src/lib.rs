@@ -24,6 +24,13 @@ pub enum LoadError {
     },
     #[error("{path}: {reason}")]
     Map { path: PathBuf, reason: MapError },
+    /// A map_server map whose image (or what its YAML says of it) is at fault: both files named.
+    #[error("{yaml} (image {image}): {reason}")]
+    MapImage {
+        yaml: PathBuf,
+        image: PathBuf,
+        reason: String,
+    },
     #[error("{path}: {message}")]
     Config { path: PathBuf, message: String },
 }
@@ -78,8 +85,16 @@ pub fn load_map_server(yaml_path: &Path) -> Result<GridMap, LoadError> {
         .parent()
         .unwrap_or(Path::new("."))
         .join(&yaml.image);
-    let image = read(&image_path)?;
-    yaml.decode(&image).map_err(map_err(&image_path))
+    let in_image = |reason: String| LoadError::MapImage {
+        yaml: yaml_path.to_owned(),
+        image: image_path.clone(),
+        reason,
+    };
+    let image = read(&image_path).map_err(|e| match e {
+        LoadError::Io { reason, .. } => in_image(reason.to_string()),
+        other => other,
+    })?;
+    yaml.decode(&image).map_err(|e| in_image(e.to_string()))
 }
 
 /// A Moving AI `.map` file.

@@ -266,10 +266,11 @@ fn keys<T: Serialize>(value: &T) -> Vec<String> {
     }
 }
 
-/// Reads and validates the `patrol_planner` block of a parameter file. `map_yaml` comes back
+/// Reads and validates the `patrol_planner` block of a parameter file (keyed `patrol_planner`,
+/// `/patrol_planner` or rclcpp's wildcard `/**`, as ROS 2 files are). `map_yaml` comes back
 /// resolved against the file's folder.
 pub fn load_parameter_file(path: &Path) -> Result<ParameterFile, LoadError> {
-    load_parameter_file_for(path, &[NODE_NAME])
+    load_parameter_file_for(path, &[NODE_NAME, "/patrol_planner", "/**"])
 }
 
 /// The same for a node that may run under another name (`-r __node:=planner_server -r
@@ -345,11 +346,16 @@ pub fn load_parameter_file_for(
             )));
         }
     }
+    // A value of the wrong type is named by its key path (`swarm.population: invalid value:
+    // integer -5, expected usize`), not by serde's type alone.
+    let typed = |e: serde_path_to_error::Error<serde_yaml::Error>| {
+        config_err(format!("parameter `{}`: {}", e.path(), e.inner()))
+    };
     let planning: PlannerConfig =
-        serde_yaml::from_value(Value::Mapping(planning)).map_err(|e| config_err(e.to_string()))?;
+        serde_path_to_error::deserialize(Value::Mapping(planning)).map_err(typed)?;
     planning.validate().map_err(|e| config_err(e.to_string()))?;
     let mut node: NodeParams =
-        serde_yaml::from_value(Value::Mapping(node)).map_err(|e| config_err(e.to_string()))?;
+        serde_path_to_error::deserialize(Value::Mapping(node)).map_err(typed)?;
     node.plugin_planners = plugin_planners;
     node.validate().map_err(config_err)?;
     if !node.map_yaml.is_empty() {
@@ -508,6 +514,22 @@ mod tests {
     }
 
     #[test]
+    fn the_block_may_be_keyed_as_ros2_files_key_it() {
+        let dir = std::env::temp_dir().join(format!("planner-io-keyed-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for key in ["/patrol_planner", "/**"] {
+            let p = dir.join(format!("{}.yaml", key.len()));
+            std::fs::write(
+                &p,
+                format!("{key}:\n  ros__parameters:\n    planner: astar\n"),
+            )
+            .unwrap();
+            let file = load_parameter_file(&p).unwrap();
+            assert_eq!(file.planning.planner, PlannerName::Astar, "{key}");
+        }
+    }
+
+    #[test]
     fn keys_go_to_their_part() {
         let p = write(
             "both.yaml",
@@ -518,6 +540,34 @@ mod tests {
         assert_eq!(file.planning.swarm.population, 7);
         assert!(!file.node.follow_plan);
         assert!(file.node.map_yaml.ends_with("maps/x.yaml") && file.node.map_yaml.len() > 11);
+        // A value of the wrong type names its parameter.
+        for (name, block, key) in [
+            (
+                "neg.yaml",
+                "    swarm: {population: -5}\n",
+                "`swarm.population`",
+            ),
+            (
+                "enum.yaml",
+                "    swarm: {mutation: gaussian}\n",
+                "`swarm.mutation`",
+            ),
+            (
+                "int.yaml",
+                "    costmap: {occupied_threshold: 500}\n",
+                "`costmap.occupied_threshold`",
+            ),
+            (
+                "node.yaml",
+                "    follower: {lookahead: fast}\n",
+                "`follower.lookahead",
+            ),
+        ] {
+            let err = load_parameter_file(&write(name, block))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key), "{name}: {err}");
+        }
         let bad = write("rate.yaml", "    control_rate_hz: -1.0\n");
         assert!(load_parameter_file(&bad)
             .unwrap_err()

@@ -168,8 +168,10 @@ fn a_missing_image_is_an_error_naming_it() {
     )
     .unwrap();
     let err = load_map_server(&yaml).unwrap_err();
-    assert!(matches!(err, LoadError::Io { .. }), "{err}");
+    assert!(matches!(err, LoadError::MapImage { .. }), "{err}");
+    // Both files named: the YAML that says where the image is, and the image.
     assert!(err.to_string().contains("nowhere.pgm"), "{err}");
+    assert!(err.to_string().contains("m.yaml"), "{err}");
     // The reason is in the message, and not again as its source: an error-chain printer
     // (anyhow's `{:#}`, the CLI's) says it once.
     assert!(std::error::Error::source(&err).is_none(), "{err}");
