@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Builds tests/interfaces/nav2_msgs (the ROS 2 Jazzy nav2_msgs interfaces the rclpy tests use:
-# ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathValid) and installs it into
-# the test venv, so that `from nav2_msgs.action import ComputePathToPose` works there and rclpy
-# can create action and service clients and servers for them. nav2_msgs has no wheel on PyPI, so
-# this generates it with the rosidl generators from PyPI (tests/requirements-interfaces.txt).
+# ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathValid) and
+# tests/interfaces/map_msgs (OccupancyGridUpdate, costmap_2d's partial updates) and installs them
+# into the test venv, so that `from nav2_msgs.action import ComputePathToPose` works there and
+# rclpy can create action and service clients and servers for them. Neither has a wheel on PyPI,
+# so this generates them with the rosidl generators from PyPI (tests/requirements-interfaces.txt).
 #
 #   tests/build_interfaces.sh [VENV]      VENV defaults to .venv at the repository root
 #
@@ -24,8 +25,8 @@ VENV=${1:-.venv}
 mkdir -p "$(dirname "$VENV")"
 VENV=$(cd "$(dirname "$VENV")" && pwd)/$(basename "$VENV")
 PY=$VENV/bin/python
-SRC=$ROOT/tests/interfaces/nav2_msgs
-BUILD=$VENV/build/nav2_msgs
+# In build order (each may use the ones before it).
+PKGS=(nav2_msgs map_msgs)
 STAMP=$VENV/share/nav2_msgs/patrol-planner-build.stamp
 START=$SECONDS
 
@@ -35,8 +36,9 @@ works() {
   env -u LD_LIBRARY_PATH -u _ROS_WHEELS_BOOTSTRAP_COMPLETE -u PYTHONPATH -u AMENT_PREFIX_PATH "$PY" -c '
 from nav2_msgs.action import ComputePathToPose, ComputePathThroughPoses, FollowWaypoints
 from nav2_msgs.srv import IsPathValid
+from map_msgs.msg import OccupancyGridUpdate
 from rclpy.type_support import check_for_type_support
-for t in (ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathValid):
+for t in (ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathValid, OccupancyGridUpdate):
     check_for_type_support(t)
 ' "$@"
 }
@@ -44,7 +46,9 @@ for t in (ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, IsPathVal
 # A hash of everything the result depends on.
 inputs_hash() {
   {
-    (cd "$SRC" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum)
+    for pkg in "${PKGS[@]}"; do
+      (cd "$ROOT/tests/interfaces/$pkg" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum)
+    done
     sha256sum tests/requirements-interfaces.txt tests/build_interfaces.sh
     "$PY" -c 'import sys; print(sys.version)'
   } | sha256sum | cut -d' ' -f1
@@ -64,7 +68,7 @@ if ! flock -n 9; then
 fi
 
 if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$(inputs_hash)" ] && works 2>/dev/null; then
-  say "nav2_msgs in $VENV is up to date (delete $STAMP to force a rebuild)"
+  say "${PKGS[*]} in $VENV are up to date (delete $STAMP to force a rebuild)"
   exit 0
 fi
 
@@ -90,46 +94,51 @@ INCLUDEPY=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])'
 [ -f "$INCLUDEPY/Python.h" ] \
   || die "no Python.h in $INCLUDEPY: the venv's Python needs its headers (Debian: apt-get install python3-dev)"
 
-# Leave no file of a previous build behind (an interface removed from the package, say).
-if [ -f "$BUILD/install_manifest.txt" ]; then
-  say "removing the previous install of nav2_msgs from $VENV"
-  while IFS= read -r f; do
-    case "$f" in "$VENV"/*) rm -f -- "$f" ;; esac
-  done < "$BUILD/install_manifest.txt"
-  # and the directories that held them (pip chokes on an empty *.egg-info directory)
-  SITE=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
-  rm -rf "$SITE/nav2_msgs" "$SITE"/nav2_msgs-*.egg-info "$VENV/include/nav2_msgs" "$VENV/share/nav2_msgs"
-fi
-rm -rf "$BUILD" "$STAMP"
-mkdir -p "$BUILD"
-
 # Only the venv's prefix: no sourced ROS install or other workspace may leak into the build.
 # (ament_cmake's resource index search, which finds the type support generators, reads
 # AMENT_PREFIX_PATH and CMAKE_INSTALL_PREFIX; find_package reads CMAKE_PREFIX_PATH.)
 export PATH=$VENV/bin:$PATH
 export AMENT_PREFIX_PATH=$VENV
 unset CMAKE_PREFIX_PATH COLCON_PREFIX_PATH PYTHONPATH LD_LIBRARY_PATH _ROS_WHEELS_BOOTSTRAP_COMPLETE
-LOG=$BUILD/build.log
-run() {
-  if ! "$@" >>"$LOG" 2>&1; then
-    tail -n 60 "$LOG" >&2
-    die "failed: $* (whole log: $LOG)"
+rm -f "$STAMP"
+SITE=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+for pkg in "${PKGS[@]}"; do
+  SRC=$ROOT/tests/interfaces/$pkg
+  BUILD=$VENV/build/$pkg
+  # Leave no file of a previous build behind (an interface removed from the package, say).
+  if [ -f "$BUILD/install_manifest.txt" ]; then
+    say "removing the previous install of $pkg from $VENV"
+    while IFS= read -r f; do
+      case "$f" in "$VENV"/*) rm -f -- "$f" ;; esac
+    done < "$BUILD/install_manifest.txt"
+    # and the directories that held them (pip chokes on an empty *.egg-info directory)
+    rm -rf "${SITE:?}/$pkg" "$SITE/$pkg"-*.egg-info "$VENV/include/$pkg" "$VENV/share/$pkg"
   fi
-}
-say "configuring (cmake $(cmake --version | head -n 1 | cut -d' ' -f3); log: $LOG)"
-run cmake -S "$SRC" -B "$BUILD" \
-  -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_INSTALL_PREFIX="$VENV" \
-  -DCMAKE_PREFIX_PATH="$VENV" \
-  -DPython3_EXECUTABLE="$PY" \
-  -DBUILD_TESTING=OFF
-say "generating and compiling (C, C++ and Python type support; about a minute on 2 cores)"
-run cmake --build "$BUILD" --parallel "$(nproc)"
-say "installing into $VENV"
-run cmake --install "$BUILD"
+  rm -rf "$BUILD"
+  mkdir -p "$BUILD"
+  LOG=$BUILD/build.log
+  run() {
+    if ! "$@" >>"$LOG" 2>&1; then
+      tail -n 60 "$LOG" >&2
+      die "failed: $* (whole log: $LOG)"
+    fi
+  }
+  say "$pkg: configuring (cmake $(cmake --version | head -n 1 | cut -d' ' -f3); log: $LOG)"
+  run cmake -S "$SRC" -B "$BUILD" \
+    -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_INSTALL_PREFIX="$VENV" \
+    -DCMAKE_PREFIX_PATH="$VENV" \
+    -DPython3_EXECUTABLE="$PY" \
+    -DBUILD_TESTING=OFF
+  say "$pkg: generating and compiling (C, C++ and Python type support)"
+  run cmake --build "$BUILD" --parallel "$(nproc)"
+  say "$pkg: installing into $VENV"
+  run cmake --install "$BUILD"
+done
 
 if ! works; then
-  die "nav2_msgs was installed into $VENV but does not import with rclpy type support (see above)"
+  die "${PKGS[*]} were installed into $VENV but do not import with rclpy type support (see above)"
 fi
+mkdir -p "$(dirname "$STAMP")"
 inputs_hash >"$STAMP"
-say "done in $((SECONDS - START)) s: nav2_msgs (Jazzy 1.3.13 subset) is importable from $PY"
+say "done in $((SECONDS - START)) s: ${PKGS[*]} (Jazzy subsets) are importable from $PY"

@@ -7,9 +7,15 @@ cost. The node runs on a domain of its own; nothing is published on /map.
 And the safety weight set at run time: the same GetPlan on the bundled map, first in the paper's
 two-objective mode (swarm.safety_weight 0), then after `ros2 param set /patrol_planner
 swarm.safety_weight 0.5`, comes back with a larger mean clearance on /diagnostics. A
-SetParametersAtomically request with one value out of range then changes nothing."""
+SetParametersAtomically request with one value out of range then changes nothing.
+
+And costmap_2d's partial updates (map_msgs/OccupancyGridUpdate on `<costmap>_updates`, what it
+sends between full costmaps unless `always_send_full_costmap`): a band written by an update is
+avoided by the next plan; an update outside the costmap is refused on /diagnostics and changes
+nothing."""
 import numpy as np
 import rclpy
+from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetPlan
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
@@ -53,6 +59,59 @@ def test_a_high_cost_band_on_the_costmap_is_avoided(tmp_path):
         statuses = [d for d in ros.diagnostics_since(0) if d[0] == "NONE"]
         assert statuses and float(statuses[-1][2]["path_cost"]) < 0.5
         assert "mean_clearance_m" in statuses[-1][2]
+    finally:
+        ros.close()
+        stop_binary(proc)
+
+
+def test_costmap_updates_are_written_into_the_costmap(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
+        f"    costmap_topic: {TOPIC}\n    search: {{cost_travel_multiplier: 2.0}}\n"
+    )
+    domain = domain_id(32)
+    proc = start_node(domain, params, "costmap_updates_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        # The same 10 m x 6 m costmap as above, all free at first.
+        grid = np.zeros((60, 100), dtype=np.int8)
+        costmap_pub = ros.node.create_publisher(OccupancyGrid, TOPIC, LATCHED)
+        updates_pub = ros.node.create_publisher(OccupancyGridUpdate, TOPIC + "_updates", LATCHED)
+        ros.wait_matched(costmap_pub, TOPIC)
+        ros.wait_matched(updates_pub, TOPIC + "_updates")
+        costmap_pub.publish(grid_msg(grid, origin=(0.0, 0.0), res=RES))
+
+        def plan():
+            req = GetPlan.Request(start=stamped(1.0, 2.0), goal=stamped(9.0, 2.0), tolerance=0.0)
+            response = call_service(ros, GetPlan, "/patrol_planner/make_plan", req)
+            return [(p.pose.position.x, p.pose.position.y) for p in response.plan.poses]
+
+        # Free: straight along y = 2.
+        ros.spin_until(lambda: (p := plan()) and max(y for _, y in p) < 2.1, 30, "a straight plan on the free costmap")
+
+        # The band of the test above (x 3.5..6.5 m, y 0..4.5 m, cost 60) as an update: its window.
+        band = OccupancyGridUpdate(x=35, y=0, width=30, height=45, data=[60] * (30 * 45))
+        band.header.frame_id = "map"
+        updates_pub.publish(band)
+
+        def off_band(x, y):
+            return not (3.5 <= x < 6.5 and y < 4.5)
+
+        def avoids():
+            p = plan()
+            return p and all(off_band(x, y) for x, y in p) and max(y for _, y in p) >= 4.5
+
+        ros.spin_until(avoids, 30, "a plan round the band the update wrote")
+
+        # A window past the costmap's edge: refused on /diagnostics, the band kept.
+        before = len(ros.diagnostics)
+        outside = OccupancyGridUpdate(x=95, y=0, width=30, height=1, data=[0] * 30)
+        outside.header.frame_id = "map"
+        updates_pub.publish(outside)
+        refused = ros.wait_code(before, "INVALID_INPUT")
+        assert "not inside" in refused[1], refused
+        assert avoids(), "the refused update changed the costmap"
     finally:
         ros.close()
         stop_binary(proc)

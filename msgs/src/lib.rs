@@ -281,6 +281,25 @@ pub mod nav_msgs {
     );
 }
 
+/// map_msgs (ROS 2 Jazzy): the partial costmap updates costmap_2d publishes on
+/// `<costmap>_updates` between full costmaps (unless `always_send_full_costmap`).
+pub mod map_msgs {
+    use super::std_msgs::Header;
+    use super::*;
+    /// map_msgs/OccupancyGridUpdate: the window `x..x + width`, `y..y + height` (cells) of the
+    /// costmap, row by row.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct OccupancyGridUpdate {
+        pub header: Header,
+        pub x: i32,
+        pub y: i32,
+        pub width: u32,
+        pub height: u32,
+        pub data: Vec<i8>,
+    }
+    messages!(OccupancyGridUpdate);
+}
+
 /// nav2_msgs (ROS 2 Jazzy): the planner server's actions and path check, so the node can stand
 /// in for Nav2's planner_server. The action wrappers (goal id, status) are ros2-client's.
 pub mod nav2_msgs {

@@ -70,7 +70,8 @@ pub struct NodeParams {
     /// A costmap to plan on, as Nav2's costmap_2d publishes it (nav_msgs/OccupancyGrid, e.g.
     /// `/global_costmap/costmap`): with it the node plans on that costmap, its obstacles,
     /// inflation and graded costs as they are, instead of its own inflation of `map`, which it
-    /// then leaves alone. Empty (default): plan on `map`.
+    /// then leaves alone; costmap_2d's partial updates on `<topic>_updates` are written into it.
+    /// Empty (default): plan on `map`.
     pub costmap_topic: String,
     /// follow_waypoints: put the waypoints in the fastest order before driving them (the route
     /// planner's), instead of the order given.

@@ -6,6 +6,7 @@ use crate::result::{Failure, ResultCode};
 use patrol_msgs::builtin_interfaces::Time;
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Vector3};
+use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
 use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
@@ -77,6 +78,43 @@ pub fn transform2(t: &Transform) -> Result<Pose2, Failure> {
         ));
     }
     Ok(Pose2::new(v.x, v.y, yaw_from_quaternion(&t.rotation)?))
+}
+
+/// costmap_2d's partial update (`<costmap>_updates`, map_msgs/OccupancyGridUpdate) written into
+/// the full costmap it belongs to: its window of cells, row by row, as Nav2's own
+/// CostmapSubscriber applies it. A window that does not lie inside the costmap, or whose data is
+/// not its size, is refused and the costmap left as it was.
+pub fn apply_update(costmap: &mut OccupancyGrid, u: &OccupancyGridUpdate) -> Result<(), String> {
+    let (w, h) = (
+        u64::from(costmap.info.width),
+        u64::from(costmap.info.height),
+    );
+    let (uw, uh) = (u64::from(u.width), u64::from(u.height));
+    let inside = u.x >= 0
+        && u.y >= 0
+        && u.x as u64 + uw <= w
+        && u.y as u64 + uh <= h
+        && costmap.data.len() as u64 == w * h;
+    if !inside {
+        return Err(format!(
+            "update window {}x{} at ({}, {}) is not inside the {w}x{h} costmap",
+            u.width, u.height, u.x, u.y
+        ));
+    }
+    if u.data.len() as u64 != uw * uh {
+        return Err(format!(
+            "update window {}x{} carries {} cells",
+            u.width,
+            u.height,
+            u.data.len()
+        ));
+    }
+    let (x, y, uw) = (u.x as usize, u.y as usize, uw as usize);
+    for (row, cells) in u.data.chunks_exact(uw.max(1)).enumerate() {
+        let start = (y + row) * w as usize + x;
+        costmap.data[start..start + uw].copy_from_slice(cells);
+    }
+    Ok(())
 }
 
 /// A received map, validated like every other map.
@@ -503,5 +541,37 @@ mod tests {
             .sqrt();
             assert!(d <= 0.1 + 1e-12);
         }
+    }
+    /// A costmap_2d update writes its window, row by row, and nothing else; a window outside
+    /// the costmap or with the wrong number of cells is refused and changes nothing.
+    #[test]
+    fn costmap_updates_write_their_window() {
+        let mut costmap = OccupancyGrid::default();
+        costmap.info.width = 4;
+        costmap.info.height = 3;
+        costmap.data = vec![0; 12];
+        let update = |x, y, width, height, data: Vec<i8>| OccupancyGridUpdate {
+            x,
+            y,
+            width,
+            height,
+            data,
+            ..OccupancyGridUpdate::default()
+        };
+        apply_update(&mut costmap, &update(1, 1, 2, 2, vec![1, 2, 3, 4])).unwrap();
+        assert_eq!(costmap.data, vec![0, 0, 0, 0, 0, 1, 2, 0, 0, 3, 4, 0]);
+        let before = costmap.data.clone();
+        for bad in [
+            update(3, 1, 2, 1, vec![9, 9]),
+            update(-1, 0, 1, 1, vec![9]),
+            update(0, 2, 1, 2, vec![9, 9]),
+            update(0, 0, 2, 2, vec![9, 9, 9]),
+        ] {
+            assert!(apply_update(&mut costmap, &bad).is_err(), "{bad:?}");
+        }
+        assert_eq!(costmap.data, before);
+        // An empty window is nothing to write.
+        apply_update(&mut costmap, &update(0, 0, 0, 0, vec![])).unwrap();
+        assert_eq!(costmap.data, before);
     }
 }

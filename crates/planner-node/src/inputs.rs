@@ -10,6 +10,7 @@ use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalSlot, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
+use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
@@ -24,6 +25,10 @@ use tokio::sync::watch;
 /// (through `slot`, as a new goal) only when the map blocks the path, and the path is kept
 /// otherwise (Nav2's replanning on an invalid path, navigation2 PR 2841).
 ///
+/// With `updates` (a costmap topic's `<topic>_updates`), each partial update costmap_2d sends
+/// between full costmaps is written into the last full costmap accepted, which then replaces the
+/// current map as a full one would; an update before any costmap, or outside it, is refused.
+///
 /// `own` is the node's own `/map` writer (it latches the map it loads from `map_yaml`): DDS
 /// delivers that sample back to this subscription, and the map is already installed, so it is
 /// skipped rather than converted a second time (at 4000 x 4000 that is 16 M cells and a second
@@ -32,33 +37,73 @@ pub async fn receive_maps(
     s: Arc<Shared>,
     o: Outputs,
     sub: Subscription<OccupancyGrid>,
+    updates: Option<Subscription<OccupancyGridUpdate>>,
     slot: watch::Sender<GoalSlot>,
     source: &'static str,
     own: Option<Gid>,
 ) {
+    // The last full costmap accepted, as updates are written into it (with `updates` only).
+    let mut last: Option<OccupancyGrid> = None;
     loop {
-        match sub.async_take().await {
-            Ok((_, info)) if own.is_some_and(|g| g == info.publisher_gid()) => {
-                log::debug!("{source}: our own map_yaml sample, already installed");
+        let update = async {
+            match &updates {
+                Some(u) => u.async_take().await,
+                None => std::future::pending().await,
             }
-            Ok((msg, _)) => {
-                match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
-                    Ok(Ok(map)) => {
-                        install_map(&s, map, source).await;
-                        replan_if_blocked(&s, &slot);
-                    }
-                    Ok(Err(e)) => {
-                        let f = Failure::new(
-                            ResultCode::InvalidInput,
-                            format!("map on {source} refused, keeping the last good one: {e}"),
-                        );
-                        let planner = s.live.read().expect("lock").planner;
-                        o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
-                    }
-                    Err(e) => error!("map task: {e}"),
+        };
+        let refuse = |why: String| {
+            let f = Failure::new(
+                ResultCode::InvalidInput,
+                format!("map on {source} refused, keeping the last good one: {why}"),
+            );
+            let planner = s.live.read().expect("lock").planner;
+            (f, planner)
+        };
+        let msg = tokio::select! {
+            taken = sub.async_take() => match taken {
+                Ok((_, info)) if own.is_some_and(|g| g == info.publisher_gid()) => {
+                    log::debug!("{source}: our own map_yaml sample, already installed");
+                    continue;
                 }
+                Ok((msg, _)) => msg,
+                Err(e) => {
+                    warn!("{source}: {e:?}");
+                    continue;
+                }
+            },
+            taken = update => match taken {
+                Ok((u, _)) => {
+                    let Some(mut costmap) = last.clone() else {
+                        warn!("{source}: an update before any full costmap, ignored");
+                        continue;
+                    };
+                    if let Err(why) = convert::apply_update(&mut costmap, &u) {
+                        let (f, planner) = refuse(why);
+                        o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
+                        continue;
+                    }
+                    costmap
+                }
+                Err(e) => {
+                    warn!("{source} updates: {e:?}");
+                    continue;
+                }
+            },
+        };
+        let kept = updates.is_some().then(|| msg.clone());
+        match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
+            Ok(Ok(map)) => {
+                if kept.is_some() {
+                    last = kept;
+                }
+                install_map(&s, map, source).await;
+                replan_if_blocked(&s, &slot);
             }
-            Err(e) => warn!("/map: {e:?}"),
+            Ok(Err(e)) => {
+                let (f, planner) = refuse(e.to_string());
+                o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
+            }
+            Err(e) => error!("map task: {e}"),
         }
     }
 }

@@ -41,6 +41,7 @@ use patrol_msgs::lifecycle_msgs::{
     ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
     GetAvailableTransitionsResponse, GetStateResponse, TransitionEvent,
 };
+use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
     FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
@@ -180,7 +181,21 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             "OccupancyGrid",
             &latched,
         )?;
-        Some(node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?)
+        let costmap = node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?;
+        // Between full costmaps costmap_2d sends the changed window on `<topic>_updates`
+        // (map_msgs/OccupancyGridUpdate, transient local and reliable as the costmap; every one
+        // kept, since each is a window of its own).
+        let updates_qos = ros_edge::reliable(10, Durability::TransientLocal);
+        let u = topic(
+            &mut node,
+            &format!("{}_updates", params.costmap_topic),
+            "map_msgs",
+            "OccupancyGridUpdate",
+            &updates_qos,
+        )?;
+        let updates =
+            node.create_subscription::<OccupancyGridUpdate>(&u, Some(updates_qos.clone()))?;
+        Some((costmap, updates))
     };
     let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
@@ -428,14 +443,15 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // The planning grid comes from the costmap topic when one is set, else from /map.
     // Our own latched map_yaml sample comes back on /map; it is skipped there (already installed).
     let own_map = (!params.map_yaml.is_empty()).then(|| map_pub.gid());
-    let (grid_sub, grid_source, own) = match costmap_sub {
-        Some(sub) => (sub, "the costmap topic", None),
-        None => (map_sub, "/map", own_map),
+    let (grid_sub, updates, grid_source, own) = match costmap_sub {
+        Some((sub, updates)) => (sub, Some(updates), "the costmap topic", None),
+        None => (map_sub, None, "/map", own_map),
     };
     tasks.spawn(inputs::receive_maps(
         shared.clone(),
         out.clone(),
         grid_sub,
+        updates,
         goal_tx.clone(),
         grid_source,
         own,
