@@ -49,7 +49,7 @@ inputs_hash() {
     for pkg in "${PKGS[@]}"; do
       (cd "$ROOT/tests/interfaces/$pkg" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum)
     done
-    sha256sum tests/requirements-interfaces.txt tests/build_interfaces.sh
+    sha256sum tests/requirements-interfaces.txt tests/build_interfaces.sh tests/interfaces/wheel_include_dirs.cmake
     "$PY" -c 'import sys; print(sys.version)'
   } | sha256sum | cut -d' ' -f1
 }

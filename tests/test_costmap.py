@@ -28,15 +28,20 @@ TOPIC = "/global_costmap/costmap"
 RES = 0.1
 
 
-def test_a_high_cost_band_on_the_costmap_is_avoided(tmp_path):
+def costmap_node(tmp_path, offset, log):
+    """The node planning with cost-aware A* on TOPIC (nothing on /map), and a client beside it."""
     params = tmp_path / "planner.yaml"
     params.write_text(
         "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
         f"    costmap_topic: {TOPIC}\n    search: {{cost_travel_multiplier: 2.0}}\n"
     )
-    domain = domain_id(30)
-    proc = start_node(domain, params, "costmap_test.log")
-    ros = Ros(domain, context=rclpy.Context())
+    domain = domain_id(offset)
+    proc = start_node(domain, params, log)
+    return proc, Ros(domain, context=rclpy.Context())
+
+
+def test_a_high_cost_band_on_the_costmap_is_avoided(tmp_path):
+    proc, ros = costmap_node(tmp_path, 30, "costmap_test.log")
     try:
         # 10 m x 6 m; a 3 m band at x 3.5..6.5 m from y 0 to 4.5 m, free above it. Its value, 60,
         # is a graded cost (about 153 of 252) on a costmap, but below the occupancy threshold (65)
@@ -65,14 +70,7 @@ def test_a_high_cost_band_on_the_costmap_is_avoided(tmp_path):
 
 
 def test_costmap_updates_are_written_into_the_costmap(tmp_path):
-    params = tmp_path / "planner.yaml"
-    params.write_text(
-        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
-        f"    costmap_topic: {TOPIC}\n    search: {{cost_travel_multiplier: 2.0}}\n"
-    )
-    domain = domain_id(32)
-    proc = start_node(domain, params, "costmap_updates_test.log")
-    ros = Ros(domain, context=rclpy.Context())
+    proc, ros = costmap_node(tmp_path, 32, "costmap_updates_test.log")
     try:
         # The same 10 m x 6 m costmap as above, all free at first.
         grid = np.zeros((60, 100), dtype=np.int8)

@@ -182,13 +182,13 @@ fn plan_rejects_bad_requests_with_a_reason() {
     assert!(!ok && stderr.contains("finite"), "{stderr}");
 }
 
-/// `bench` writes one row per scenario x planner with the documented fields, and a Markdown table.
-#[test]
-fn bench_writes_rows_and_markdown() {
-    let scen = shared("bench/substation_20_complex.scen.yaml");
-    let dir = std::env::temp_dir().join(format!("patrol-plan-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let (json, md) = (dir.join("b.json"), dir.join("b.md"));
+/// `bench --planners astar,any_angle --runs 2` on a scenario file, its JSON and Markdown written
+/// beside `out` (`out.json`, `out.md`): the rows and the table.
+fn bench_astar_and_any_angle(
+    scen: &std::path::Path,
+    out: &std::path::Path,
+) -> (Vec<serde_json::Value>, String) {
+    let (json, md) = (out.with_extension("json"), out.with_extension("md"));
     let (ok, _, stderr) = patrol_plan(&[
         "bench",
         "--scenarios",
@@ -203,8 +203,17 @@ fn bench_writes_rows_and_markdown() {
         md.to_str().unwrap(),
     ]);
     assert!(ok, "{stderr}");
-    let rows: Vec<serde_json::Value> =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    (rows, std::fs::read_to_string(&md).unwrap())
+}
+
+/// `bench` writes one row per scenario x planner with the documented fields, and a Markdown table.
+#[test]
+fn bench_writes_rows_and_markdown() {
+    let scen = shared("bench/substation_20_complex.scen.yaml");
+    let dir = std::env::temp_dir().join(format!("patrol-plan-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (rows, table) = bench_astar_and_any_angle(&scen, &dir.join("b"));
     assert_eq!(rows.len(), 2 * 2);
     for r in &rows {
         for key in [
@@ -254,7 +263,6 @@ fn bench_writes_rows_and_markdown() {
     assert!(ok, "{stderr}");
     let replay: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(replay["length_m"], row["length_m_best"]);
-    let table = std::fs::read_to_string(&md).unwrap();
     assert!(
         table.contains("| substation_20_complex | lower_right_to_upper_left | any_angle |"),
         "{table}"
@@ -344,29 +352,12 @@ fn bench_counts_the_answers_to_unsolvable_queries() {
          - {name: off, start: [1.5, 5.0], goal: [80.0, 5.0]}\n",
     )
     .unwrap();
-    let (json, md) = (dir.join("s.json"), dir.join("s.md"));
-    let (ok, _, stderr) = patrol_plan(&[
-        "bench",
-        "--scenarios",
-        scen.to_str().unwrap(),
-        "--planners",
-        "astar,any_angle",
-        "--runs",
-        "2",
-        "--json",
-        json.to_str().unwrap(),
-        "--markdown",
-        md.to_str().unwrap(),
-    ]);
-    assert!(ok, "{stderr}");
-    let rows: Vec<serde_json::Value> =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let (rows, table) = bench_astar_and_any_angle(&scen, &dir.join("s"));
     for r in &rows {
         let unsolvable = r["scenario"] != "ok";
         assert_eq!(r["astar_found_path"], !unsolvable, "{r}");
         assert_eq!(r["astar_failure"].is_string(), unsolvable, "{r}");
     }
-    let table = std::fs::read_to_string(&md).unwrap();
     for planner in ["astar", "any_angle"] {
         let line = format!("| split | {planner} | 2/2 | 2 | 4/4 |");
         assert!(table.contains(&line), "{line} not in\n{table}");
