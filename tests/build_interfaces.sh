@@ -8,12 +8,12 @@
 #
 #   tests/build_interfaces.sh [VENV]      VENV defaults to .venv at the repository root
 #
-# Idempotent: when nothing that goes into the build has changed (the package's files, the pinned
-# requirements, this script, the venv's Python) and nav2_msgs imports, it only says so (~1 s).
+# Idempotent: when nothing that goes into the build has changed (the packages' files, the pinned
+# requirements, this script, the venv's Python) and both packages import, it only says so (~1 s).
 # Installs into the venv's own prefix (VENV/lib, VENV/lib/python3.X/site-packages, VENV/share),
 # where the ros-* wheels put their libraries too: the wheels' ros_wheels_bootstrapper.pth already
 # puts VENV/lib on LD_LIBRARY_PATH when the venv's python starts, so the tests need no
-# environment variable. The build tree is VENV/build/nav2_msgs.
+# environment variable. The build trees are VENV/build/<package>.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -27,7 +27,7 @@ VENV=$(cd "$(dirname "$VENV")" && pwd)/$(basename "$VENV")
 PY=$VENV/bin/python
 # In build order (each may use the ones before it).
 PKGS=(nav2_msgs map_msgs)
-STAMP=$VENV/share/nav2_msgs/patrol-planner-build.stamp
+STAMP=$VENV/share/patrol-planner-interfaces.stamp
 START=$SECONDS
 
 # The check that matters: the generated package imports and has C type support for rclpy,

@@ -97,6 +97,8 @@ pub struct Row {
     pub astar_found_path: bool,
     /// That answer of A*'s (`NO_VALID_PATH (208): ...`), when it gave one.
     pub astar_failure: Option<String>,
+    /// With that answer: how many runs gave the same code.
+    pub answered_as_astar: Option<u64>,
     /// Runs whose answer is better than the planner's seed path: shorter or smoother, worse on
     /// neither, both finished alike (counter `improved_on_seed`, from the planners that start
     /// from a seed).
@@ -286,6 +288,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     (vec![], vec![], vec![], vec![], vec![], vec![]);
                 let (mut mean_clear, mut cost, mut half) = (vec![], vec![], vec![]);
                 let (mut ok, mut free, mut failure) = (0, 0, None);
+                let mut as_astar = 0u64;
                 let mut improved: Option<u64> = None;
                 let mut straight: Option<u64> = None;
                 let mut volumes = Vec::new();
@@ -332,7 +335,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             *ends.entry(end).or_default() += 1;
                         }
                         Err(e) => {
-                            failure.get_or_insert_with(|| crate::run::failure_line(&e));
+                            let line = crate::run::failure_line(&e);
+                            as_astar += u64::from(
+                                astar_failure.as_deref().map(code_name) == Some(code_name(&line)),
+                            );
+                            failure.get_or_insert(line);
                         }
                     }
                     bar.inc(1);
@@ -364,6 +371,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     reference_length_m: reference,
                     astar_found_path,
                     astar_failure: astar_failure.clone(),
+                    answered_as_astar: astar_failure.is_some().then_some(as_astar),
                     apf_fallbacks: fallbacks,
                     hypervolume_median: (!volumes.is_empty()).then(|| median(volumes)),
                     improved_on_seed: improved,
@@ -397,6 +405,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
+}
+
+/// The Nav2 code's name a failure line starts with (`NO_VALID_PATH` of `NO_VALID_PATH (208): ...`).
+fn code_name(line: &str) -> &str {
+    line.split(" (").next().unwrap_or(line)
 }
 
 /// Whether a failure is an answer to the query itself (no path, an end off the map or on an
@@ -444,21 +457,7 @@ fn summary(s: &mut String, rows: &[Row]) {
         let free: u64 = solvable.iter().map(|r| r.collision_free).sum();
         let refused: u64 = unsolvable
             .iter()
-            .map(|r| {
-                let code = |f: &Option<String>| {
-                    f.as_deref()
-                        .and_then(|f| f.split(" (").next())
-                        .map(str::to_owned)
-                };
-                if r.successes == 0
-                    && code(&r.failure).is_some()
-                    && code(&r.failure) == code(&r.astar_failure)
-                {
-                    r.runs
-                } else {
-                    0
-                }
-            })
+            .map(|r| r.answered_as_astar.unwrap_or(0))
             .sum();
         let avg = |get: &dyn Fn(&Row) -> Option<f64>| {
             mean(&solvable.iter().filter_map(|r| get(r)).collect::<Vec<_>>())

@@ -174,10 +174,13 @@ impl NodeParams {
         Ok(())
     }
 
-    /// The planner a ComputePathToPose `planner_id` asks for, resolved as planner_server resolves
-    /// its plugin ids: empty, or an id of `planner_plugins` without a planner of its own, is
-    /// `None` (the `planner` parameter); an id with one is that planner; otherwise the id must be
-    /// one of this node's planner names. Anything else is refused with what it could have been.
+    /// The planner a ComputePathToPose `planner_id` asks for. An id of `planner_plugins` with a
+    /// planner of its own is that planner, as planner_server looks its plugin ids up; beyond
+    /// Nav2, an id of `planner_plugins` without one (Nav2's `GridBased` by default) is `None`,
+    /// the `planner` parameter, and so is an empty id, whatever the number of ids (Nav2 takes
+    /// an empty id only with one plugin: here `planner` is always the default); and any of this
+    /// node's planner names may be asked for by name. Anything else is refused with what it
+    /// could have been.
     pub fn planner_for_id(&self, id: &str) -> Result<Option<PlannerName>, String> {
         if id.is_empty() {
             return Ok(None);
@@ -326,6 +329,15 @@ pub fn load_parameter_file_for(
                 )));
             }
             let planner = plugin_block(name, &value, &mut warnings).map_err(config_err)?;
+            // An id named like one of our planners must run it: `planner_id: astar` would
+            // otherwise mean two things.
+            if let Ok(named) = name.parse::<PlannerName>() {
+                if planner != Some(named) {
+                    return Err(config_err(format!(
+                        "planner_plugins id `{name}` is a planner's name: its block must name that planner"
+                    )));
+                }
+            }
             plugin_planners.insert(name.to_owned(), planner);
         } else if planning_keys.iter().any(|k| k == name) {
             planning.insert(key, value);
@@ -352,6 +364,21 @@ pub fn load_parameter_file_for(
     let typed = |e: serde_path_to_error::Error<serde_yaml::Error>| {
         config_err(format!("parameter `{}`: {}", e.path(), e.inner()))
     };
+    for id in &plugin_ids {
+        if !plugin_planners.contains_key(id) {
+            if let Ok(named) = id.parse::<PlannerName>() {
+                // Listed without a block, it could only answer with `planner`, not itself.
+                return Err(config_err(format!(
+                    "planner_plugins id `{id}` is a planner's name: give it a block `{id}: {{plugin: {named}}}` or another id"
+                )));
+            }
+            if id != "GridBased" {
+                warnings.push(format!(
+                    "planner_plugins id `{id}` has no block `{id}: {{plugin: ...}}`: it answers with the `planner` parameter"
+                ));
+            }
+        }
+    }
     let planning: PlannerConfig =
         serde_path_to_error::deserialize(Value::Mapping(planning)).map_err(typed)?;
     planning.validate().map_err(|e| config_err(e.to_string()))?;
@@ -460,7 +487,12 @@ mod tests {
              Safe: {plugin: mocmcso}\n",
         );
         let file = load_parameter_file(&p).unwrap();
-        assert!(file.warnings.is_empty(), "{:?}", file.warnings);
+        assert_eq!(file.warnings.len(), 1, "{:?}", file.warnings);
+        assert!(
+            file.warnings[0].contains("`Plain` has no block"),
+            "{:?}",
+            file.warnings
+        );
         let node = &file.node;
         assert_eq!(
             node.planner_for_id("GridBased"),
@@ -501,6 +533,17 @@ mod tests {
                 "each id once",
             ),
             ("empty.yaml", "    planner_plugins: ['']\n", "none empty"),
+            // An id that is a planner's name runs that planner or is refused.
+            (
+                "shadow.yaml",
+                "    planner_plugins: [astar]\n",
+                "is a planner's name",
+            ),
+            (
+                "other.yaml",
+                "    planner_plugins: [astar]\n    astar: {plugin: mocmcso}\n",
+                "is a planner's name",
+            ),
             (
                 "type.yaml",
                 "    planner_plugins: GridBased\n",
@@ -559,7 +602,7 @@ mod tests {
                 "`costmap.occupied_threshold`",
             ),
             (
-                "node.yaml",
+                "lookahead.yaml",
                 "    follower: {lookahead: fast}\n",
                 "`follower.lookahead",
             ),

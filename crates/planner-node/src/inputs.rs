@@ -59,13 +59,15 @@ pub async fn receive_maps(
             let planner = s.live.read().expect("lock").planner;
             (f, planner)
         };
-        let msg = tokio::select! {
+        // A full costmap first: an update waiting beside it belongs to it, not to the one before.
+        let (msg, level) = tokio::select! {
+            biased;
             taken = sub.async_take() => match taken {
                 Ok((_, info)) if own.is_some_and(|g| g == info.publisher_gid()) => {
                     log::debug!("{source}: our own map_yaml sample, already installed");
                     continue;
                 }
-                Ok((msg, _)) => msg,
+                Ok((msg, _)) => (msg, Level::Info),
                 Err(e) => {
                     warn!("{source}: {e:?}");
                     continue;
@@ -73,6 +75,7 @@ pub async fn receive_maps(
             },
             taken = update => match taken {
                 Ok((u, _)) => {
+                    // Patched on a copy: the last good costmap stays as it is if this fails.
                     let Some(mut costmap) = last.clone() else {
                         warn!("{source}: an update before any full costmap, ignored");
                         continue;
@@ -82,7 +85,8 @@ pub async fn receive_maps(
                         o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
                         continue;
                     }
-                    costmap
+                    // About once a second with costmap_2d's defaults: not for the info log.
+                    (costmap, Level::Debug)
                 }
                 Err(e) => {
                     warn!("{source} updates: {e:?}");
@@ -90,16 +94,21 @@ pub async fn receive_maps(
                 }
             },
         };
-        let kept = updates.is_some().then(|| msg.clone());
-        match tokio::task::spawn_blocking(move || convert::grid_from_msg(&msg)).await {
-            Ok(Ok(map)) => {
-                if kept.is_some() {
-                    last = kept;
+        let keep = updates.is_some();
+        let converted = tokio::task::spawn_blocking(move || {
+            let map = convert::grid_from_msg(&msg);
+            (map, msg)
+        })
+        .await;
+        match converted {
+            Ok((Ok(map), msg)) => {
+                if keep {
+                    last = Some(msg);
                 }
-                install_map(&s, map, source).await;
+                install_map(&s, map, source, level).await;
                 replan_if_blocked(&s, &slot);
             }
-            Ok(Err(e)) => {
+            Ok((Err(e), _)) => {
                 let (f, planner) = refuse(e.to_string());
                 o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
             }

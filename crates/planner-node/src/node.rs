@@ -183,8 +183,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         )?;
         let costmap = node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?;
         // Between full costmaps costmap_2d sends the changed window on `<topic>_updates`
-        // (map_msgs/OccupancyGridUpdate, transient local and reliable as the costmap; every one
-        // kept, since each is a window of its own).
+        // (map_msgs/OccupancyGridUpdate, transient local and reliable as the costmap). Each is a
+        // window of its own, so the reader keeps the last 10, not 1: with costmap_2d's rate of
+        // about one a second a backlog that deep means the node is far behind anyway.
         let updates_qos = ros_edge::reliable(10, Durability::TransientLocal);
         let u = topic(
             &mut node,
@@ -429,7 +430,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             Ok(map) => {
                 let msg = convert::msg_from_grid(&map, &params.global_frame, ros_edge::now());
                 if params.costmap_topic.is_empty() {
-                    install_map(&shared, map, "map_yaml").await;
+                    install_map(&shared, map, "map_yaml", log::Level::Info).await;
                 }
                 if let Err(e) = map_pub.async_publish(msg).await {
                     error!("publishing the map on /map: {e:?}");

@@ -120,15 +120,14 @@ pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
 }
 
 /// The order to visit `poses` in from `robot`: the route planner's over the current map, or the
-/// given order when ordering is off or impossible (the reason is logged); and whether it is the
-/// given one.
-fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> (Vec<usize>, bool) {
+/// given order when ordering is off or impossible (the reason is logged).
+fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> Vec<usize> {
     let given: Vec<usize> = (0..poses.len()).collect();
     if !s.params.order_waypoints || poses.len() < 3 {
-        return (given, true);
+        return given;
     }
     let Some(map) = s.map.read().expect("lock").clone() else {
-        return (given, true);
+        return given;
     };
     let file = RouteFile {
         start: Some(RoutePose {
@@ -167,11 +166,11 @@ fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> (Vec<usize>, boo
                 "follow_waypoints: order {order:?} ({:.0} s predicted, {:.0} s in the given order)",
                 plan.total_time_s, plan.given_order_time_s
             );
-            (order, false)
+            order
         }
         Err(e) => {
             warn!("follow_waypoints: keeping the given order: {e}");
-            (given, true)
+            given
         }
     }
 }
@@ -179,23 +178,17 @@ fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> (Vec<usize>, boo
 /// Whether a patrol is to stop (cancelled or preempted); shared with each leg's planning.
 type Stop = Arc<dyn Fn() -> bool + Send + Sync>;
 
-/// The waypoints of each pass in visiting order, as Nav2's waypoint follower runs them: the
-/// first pass starts at `goal_index` and skips the waypoints before it (in the given order; with
-/// the waypoints reordered, those whose index is below it), the `number_of_loops` passes after it
-/// visit all.
-fn passes(
-    order: &[usize],
-    goal_index: usize,
-    number_of_loops: u32,
-    given_order: bool,
-) -> Vec<Vec<usize>> {
-    let first: Vec<usize> = if given_order {
-        order[goal_index.min(order.len())..].to_vec()
-    } else {
-        order.iter().copied().filter(|&i| i >= goal_index).collect()
-    };
-    std::iter::once(first)
-        .chain((0..number_of_loops).map(|_| order.to_vec()))
+/// The waypoints of pass `pass` (0 the first) in visiting order, as Nav2's waypoint follower
+/// runs them: the first pass leaves out the waypoints whose index in the request is below
+/// `goal_index` (in the given order, those before it; reordered, wherever the order puts them),
+/// the `number_of_loops` passes after it visit all. One pass at a time: a client's
+/// `number_of_loops` (a u32) never sizes an allocation.
+fn pass_order(order: &[usize], goal_index: usize, pass: u32) -> Vec<usize> {
+    let first = pass == 0;
+    order
+        .iter()
+        .copied()
+        .filter(|&i| !first || i >= goal_index)
         .collect()
 }
 
@@ -224,7 +217,8 @@ where
             }
         }
     }
-    // Nav2's waypoint follower aborts both.
+    // Nav2's waypoint follower aborts an empty patrol; a goal_index past the end, which it
+    // would index with, is refused here the same way.
     if poses.is_empty() {
         result.error_code = 600;
         result.error_msg = "no waypoints given".into();
@@ -250,19 +244,11 @@ where
         result.error_msg = "no robot pose yet: publish /initialpose, /amcl_pose or /odom".into();
         return (GoalEndStatus::Aborted, result);
     };
-    let (order, given) = visiting_order(s, robot, &poses);
+    let order = visiting_order(s, robot, &poses);
     let tolerance = s.live.read().expect("lock").tolerance;
     let stop_on_failure = s.params.stop_on_failure;
-    for (pass, order) in passes(
-        &order,
-        goal.goal_index as usize,
-        goal.number_of_loops,
-        given,
-    )
-    .into_iter()
-    .enumerate()
-    {
-        for i in order {
+    for pass in 0..=goal.number_of_loops {
+        for i in pass_order(&order, goal.goal_index as usize, pass) {
             if stop() {
                 brake(s);
                 return (GoalEndStatus::Canceled, result);
@@ -361,9 +347,10 @@ where
 }
 
 /// A patrol ended at its first missed waypoint (`stop_on_failure`), as Nav2's ends: aborted,
-/// with the missed waypoints so far.
+/// with the missed waypoints so far (each with its own code) and FollowWaypoints' UNKNOWN (600)
+/// as the result's code, the only failure code Jazzy's action has beside the task executor's.
 fn failed(mut result: FollowWaypointsResult, i: usize) -> (GoalEndStatus, FollowWaypointsResult) {
-    result.error_code = result.missed_waypoints.last().map_or(600, |m| m.error_code);
+    result.error_code = 600;
     result.error_msg = format!("waypoint {i} missed and stop_on_failure is set");
     (GoalEndStatus::Aborted, result)
 }
@@ -376,21 +363,20 @@ fn brake(s: &Shared) {
 
 #[cfg(test)]
 mod tests {
-    use super::passes;
+    use super::pass_order;
 
     #[test]
     fn the_first_pass_starts_at_goal_index_and_later_passes_visit_all() {
         // The given order: the first pass runs from goal_index to the end, as Nav2's does.
-        assert_eq!(
-            passes(&[0, 1, 2, 3], 2, 1, true),
-            vec![vec![2, 3], vec![0, 1, 2, 3]]
-        );
-        assert_eq!(passes(&[0, 1, 2], 0, 0, true), vec![vec![0, 1, 2]]);
+        assert_eq!(pass_order(&[0, 1, 2, 3], 2, 0), vec![2, 3]);
+        assert_eq!(pass_order(&[0, 1, 2, 3], 2, 1), vec![0, 1, 2, 3]);
+        assert_eq!(pass_order(&[0, 1, 2], 0, 0), vec![0, 1, 2]);
         // Reordered: the waypoints before goal_index in the request are left out of the first
         // pass, wherever the order puts them.
+        assert_eq!(pass_order(&[3, 0, 2, 1], 2, 0), vec![3, 2]);
         assert_eq!(
-            passes(&[3, 0, 2, 1], 2, 2, false),
-            vec![vec![3, 2], vec![3, 0, 2, 1], vec![3, 0, 2, 1]]
+            pass_order(&[3, 0, 2, 1], 2, 4_000_000_000),
+            vec![3, 0, 2, 1]
         );
     }
 }

@@ -118,7 +118,7 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
 }
 
 /// Validates a map into a planning grid (off the async threads) and makes it the current one.
-pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
+pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Level) {
     let costmap = s.planning.costmap.clone();
     let (w, h) = (map.width(), map.height());
     // With a costmap topic the costmap is the planning grid, taken as it is (already inflated,
@@ -137,7 +137,7 @@ pub async fn install_map(s: &Shared, map: GridMap, source: &str) {
     {
         Ok(Ok(state)) => {
             *s.map.write().expect("lock") = Some(Arc::new(state));
-            info!("map from {source}: {w} x {h} cells");
+            log::log!(level, "map from {source}: {w} x {h} cells");
         }
         Ok(Err(e)) => error!("map from {source} refused: {e}"),
         Err(e) => error!("map task: {e}"),
