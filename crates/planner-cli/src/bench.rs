@@ -14,6 +14,7 @@ use planner_core::planner::PlannerRng;
 use planner_core::sampling::{random_queries, QuerySampling};
 use planner_core::swarm::pareto::hypervolume_2d;
 use planner_core::PlannerName;
+use planner_io::result_code::ResultCode;
 use rand::SeedableRng;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -262,11 +263,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             // Unsolvable where A* answers the query itself: no path, or an end off the map or
             // on an obstacle (not where it timed out or was refused for its size). Every
             // planner is to answer such a query as A* does.
-            let astar_failure = astar
-                .as_ref()
-                .err()
-                .filter(|e| answers_the_query(e))
-                .map(crate::run::failure_line);
+            let astar_failure = astar.as_ref().err().filter(|e| answers_the_query(e));
+            // Its code, which each run's failure is compared with.
+            let astar_code = astar_failure.map(ResultCode::from);
+            let astar_failure = astar_failure.map(crate::run::failure_line);
             let astar_found_path = astar_failure.is_none();
             let astar = astar.ok();
             // The hypervolume's units: A*'s length and turning on this query.
@@ -335,11 +335,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             *ends.entry(end).or_default() += 1;
                         }
                         Err(e) => {
-                            let line = crate::run::failure_line(&e);
-                            as_astar += u64::from(
-                                astar_failure.as_deref().map(code_name) == Some(code_name(&line)),
-                            );
-                            failure.get_or_insert(line);
+                            as_astar += u64::from(astar_code == Some(ResultCode::from(&e)));
+                            failure.get_or_insert_with(|| crate::run::failure_line(&e));
                         }
                     }
                     bar.inc(1);
@@ -407,15 +404,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// The Nav2 code's name a failure line starts with (`NO_VALID_PATH` of `NO_VALID_PATH (208): ...`).
-fn code_name(line: &str) -> &str {
-    line.split(" (").next().unwrap_or(line)
-}
-
 /// Whether a failure is an answer to the query itself (no path, an end off the map or on an
 /// obstacle, a malformed query) rather than to the run (a deadline, the memory cap).
 fn answers_the_query(e: &planner_core::planner::PlanError) -> bool {
-    use planner_io::result_code::ResultCode as R;
+    use ResultCode as R;
     matches!(
         R::from(e),
         R::NoValidPath

@@ -329,15 +329,6 @@ pub fn load_parameter_file_for(
                 )));
             }
             let planner = plugin_block(name, &value, &mut warnings).map_err(config_err)?;
-            // An id named like one of our planners must run it: `planner_id: astar` would
-            // otherwise mean two things.
-            if let Ok(named) = name.parse::<PlannerName>() {
-                if planner != Some(named) {
-                    return Err(config_err(format!(
-                        "planner_plugins id `{name}` is a planner's name: its block must name that planner"
-                    )));
-                }
-            }
             plugin_planners.insert(name.to_owned(), planner);
         } else if planning_keys.iter().any(|k| k == name) {
             planning.insert(key, value);
@@ -365,18 +356,20 @@ pub fn load_parameter_file_for(
         config_err(format!("parameter `{}`: {}", e.path(), e.inner()))
     };
     for id in &plugin_ids {
-        if !plugin_planners.contains_key(id) {
-            if let Ok(named) = id.parse::<PlannerName>() {
-                // Listed without a block, it could only answer with `planner`, not itself.
+        let answers = plugin_planners.get(id).copied().flatten();
+        // An id named like one of our planners must run it (bare, or with another planner's
+        // block, it would answer otherwise): `planner_id: astar` would mean two things.
+        if let Ok(named) = id.parse::<PlannerName>() {
+            if answers != Some(named) {
                 return Err(config_err(format!(
-                    "planner_plugins id `{id}` is a planner's name: give it a block `{id}: {{plugin: {named}}}` or another id"
+                    "planner_plugins id `{id}` is a planner's name: give it the block `{id}: {{plugin: {named}}}` or another id"
                 )));
             }
-            if id != "GridBased" {
-                warnings.push(format!(
-                    "planner_plugins id `{id}` has no block `{id}: {{plugin: ...}}`: it answers with the `planner` parameter"
-                ));
-            }
+        }
+        if !plugin_planners.contains_key(id) && id != "GridBased" {
+            warnings.push(format!(
+                "planner_plugins id `{id}` has no block `{id}: {{plugin: ...}}`: it answers with the `planner` parameter"
+            ));
         }
     }
     let planning: PlannerConfig =
@@ -408,12 +401,21 @@ pub fn load_parameter_file_for(
 mod tests {
     use super::*;
 
-    fn write(name: &str, block: &str) -> PathBuf {
+    /// A file of this text in the tests' folder (one per process; each test its own names).
+    fn write_file(name: &str, text: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("planner-io-params-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join(name);
-        std::fs::write(&p, format!("patrol_planner:\n  ros__parameters:\n{block}")).unwrap();
+        std::fs::write(&p, text).unwrap();
         p
+    }
+
+    /// A parameter file whose `patrol_planner` block holds `block`.
+    fn write(name: &str, block: &str) -> PathBuf {
+        write_file(
+            name,
+            &format!("patrol_planner:\n  ros__parameters:\n{block}"),
+        )
     }
 
     #[test]
@@ -436,18 +438,14 @@ mod tests {
     /// named in the warnings, and an id that is neither a plugin id nor a planner is refused.
     #[test]
     fn nav2s_planner_server_block_loads_unedited() {
-        let dir = std::env::temp_dir().join(format!("planner-io-nav2-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("nav2_params.yaml");
-        std::fs::write(
-            &p,
+        let p = write_file(
+            "nav2_params.yaml",
             "planner_server:\n  ros__parameters:\n    expected_planner_frequency: 20.0\n    \
              use_sim_time: True\n    costmap_update_timeout: 1.0\n    \
              planner_plugins: [\"GridBased\"]\n    GridBased:\n      \
              plugin: \"nav2_navfn_planner/NavfnPlanner\"\n      tolerance: 0.5\n      \
              use_astar: false\n      allow_unknown: true\n",
-        )
-        .unwrap();
+        );
         let file = load_parameter_file_for(&p, &["planner_server"]).unwrap();
         let warned = file.warnings.join("\n");
         for word in [
@@ -469,12 +467,10 @@ mod tests {
             "{err}"
         );
         // Under a namespace Nav2's launch nests the block: `robot1: planner_server:`.
-        let nested = dir.join("nested.yaml");
-        std::fs::write(
-            &nested,
+        let nested = write_file(
+            "nested.yaml",
             "robot1:\n  planner_server:\n    ros__parameters:\n      planner: astar\n",
-        )
-        .unwrap();
+        );
         let file = load_parameter_file_for(&nested, &["/robot1/planner_server"]).unwrap();
         assert_eq!(file.planning.planner, PlannerName::Astar);
     }
@@ -559,15 +555,11 @@ mod tests {
 
     #[test]
     fn the_block_may_be_keyed_as_ros2_files_key_it() {
-        let dir = std::env::temp_dir().join(format!("planner-io-keyed-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
         for key in ["/patrol_planner", "/**"] {
-            let p = dir.join(format!("{}.yaml", key.len()));
-            std::fs::write(
-                &p,
-                format!("{key}:\n  ros__parameters:\n    planner: astar\n"),
-            )
-            .unwrap();
+            let p = write_file(
+                &format!("keyed{}.yaml", key.len()),
+                &format!("{key}:\n  ros__parameters:\n    planner: astar\n"),
+            );
             let file = load_parameter_file(&p).unwrap();
             assert_eq!(file.planning.planner, PlannerName::Astar, "{key}");
         }
