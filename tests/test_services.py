@@ -1,7 +1,8 @@
 """patrol_planner's services from outside, with rclpy's own clients (Fast DDS), as `ros2 service
 call` and `ros2 param set` use them: GetPlan on /patrol_planner/make_plan (a plan well over one
 datagram, so the reply is fragmented on the wire), the parameter services switching the planner
-at run time and refusing bad values with a reason, and the node's own log lines on /rosout.
+at run time and refusing bad values with a reason, the inflation set at run time, and the node's
+own log lines on /rosout.
 Runs after test_node.py, on the same node, and leaves the planner as it found it."""
 import math
 
@@ -85,6 +86,42 @@ def test_parameters_switch_the_planner_and_refuse_bad_values(ros):
         assert not refused.successful and refused.reason
     finally:
         assert set_param(ros, "planner", default).successful
+
+
+def test_the_inflation_set_at_run_time_reshapes_the_next_plan(ros):
+    """`ros2 param set /patrol_planner costmap.safety_margin 0.5`, as a Nav2 user tunes costmap_2d's
+    inflation live: the node makes its grid again and the next plan keeps the wider distance."""
+    use_test_map(ros)
+    names = call_service(ros, ListParameters, "/patrol_planner/list_parameters", ListParameters.Request()).result.names
+    inflation = {"costmap.robot_radius", "costmap.safety_margin", "costmap.inflation_radius", "costmap.cost_scaling_factor"}
+    assert inflation <= set(names)
+    planner = get_param(ros, "planner").string_value
+    margin = get_param(ros, "costmap.safety_margin").double_value
+    assert margin == 0.2, "config/planner.yaml's safety_margin"
+    start, goal = world(1.0, 1.0), world(11.5, 7.0)  # round the wall's end
+
+    def min_clearance():
+        i = len(ros.diagnostics)
+        assert get_plan(ros, start, goal).poses
+        _, _, values = ros.wait_code(i, "NONE")
+        return float(values["min_clearance_m"])
+
+    try:
+        assert set_param(ros, "planner", "astar").successful  # A* grazes the inflated band
+        tight = min_clearance()
+        assert tight < 0.6, tight
+        assert set_param(ros, "costmap.safety_margin", 0.5).successful
+        wide = min_clearance()
+        print(f"minimum clearance {tight:.3f} m -> {wide:.3f} m with the robot radius 0.25 + margin 0.5")
+        assert wide >= 0.75 - 0.05, f"the next plan keeps 0.75 m off the walls, not {wide}"
+        refused = set_param(ros, "costmap.inflation_radius", -1.0)
+        assert not refused.successful and "inflation_radius" in refused.reason, refused.reason
+        assert get_param(ros, "costmap.inflation_radius").double_value == 1.75, "a refused value changes nothing"
+        assert set_param(ros, "costmap.safety_margin", margin).successful
+        assert abs(min_clearance() - tight) < 1e-9, "the old margin gives the old plan back"
+    finally:
+        assert set_param(ros, "costmap.safety_margin", margin).successful
+        assert set_param(ros, "planner", planner).successful
 
 
 def test_the_nodes_own_log_lines_reach_rosout(ros):

@@ -387,7 +387,10 @@ pub async fn serve_is_path_valid(
         } else {
             None
         };
-        let map = s.map.read().expect("lock").clone();
+        let shared = s.clone();
+        let map = tokio::task::spawn_blocking(move || shared.current_map())
+            .await
+            .unwrap_or_default();
         let response = match (refusal, map) {
             (Some(why), _) => {
                 warn!("is_path_valid: invalid: {why}");

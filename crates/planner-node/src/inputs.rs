@@ -7,7 +7,7 @@ use crate::convert;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{GoalSlot, Shared};
+use crate::state::{GoalSlot, MapState, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
@@ -106,7 +106,10 @@ pub async fn receive_maps(
                     last = Some(msg);
                 }
                 install_map(&s, map, source, level).await;
-                replan_if_blocked(&s, &slot);
+                let installed = s.map.read().expect("lock").clone();
+                if let Some(map) = installed {
+                    replan_if_blocked(&s, &slot, &map, "the new map");
+                }
             }
             Ok((Err(e), _)) => {
                 let (f, planner) = refuse(e.to_string());
@@ -117,17 +120,15 @@ pub async fn receive_maps(
     }
 }
 
-/// After a new map: the part of the followed path still ahead of the robot (from the pose
-/// nearest it) is checked with `is_path_valid`'s rule; if the map blocks it, its goal goes back
-/// into the goal slot and is planned again from where the robot is.
-fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>) {
+/// After a new map (or a new inflation of it: `why`): the part of the followed path still ahead
+/// of the robot (from the pose nearest it) is checked against `map` with `is_path_valid`'s rule;
+/// if the map blocks it, its goal goes back into the goal slot and is planned again from where
+/// the robot is.
+fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &MapState, why: &str) {
     if s.follower.lock().expect("lock").is_none() {
         return;
     }
     let Some((goal, path)) = s.followed.lock().expect("lock").clone() else {
-        return;
-    };
-    let Some(map) = s.map.read().expect("lock").clone() else {
         return;
     };
     let robot = s.odom.read().expect("lock").map(|(p, _)| (p.x, p.y));
@@ -145,14 +146,36 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>) {
     let invalid = crate::actions::invalid_poses(&map.grid, ahead);
     if let Some(first) = invalid.first() {
         info!(
-            "the new map blocks the path being followed ({} of its poses ahead, the first {:.2} m on): replanning",
+            "{why} blocks the path being followed ({} of its poses ahead, the first {:.2} m on): replanning",
             invalid.len(),
             path_length(&ahead[..=*first as usize])
         );
         let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
         let _ = slot.send(Some((id, goal)));
     } else {
-        info!("new map: the path being followed is still free, kept");
+        info!("{why}: the path being followed is still free, kept");
+    }
+}
+
+/// Makes the planning grid again each time `changed` says a setting changed (`ros2 param set`)
+/// and the costmap parameters differ from the grid's, so the next plan does not wait for it,
+/// then checks the path being followed against it as against a new map: a wider inflation may
+/// block it, as a costmap_2d reconfigure makes Nav2's IsPathValid fail and its tree replan.
+pub async fn remake_grid_on_change(
+    s: Arc<Shared>,
+    changed: Arc<tokio::sync::Notify>,
+    slot: watch::Sender<GoalSlot>,
+) {
+    loop {
+        changed.notified().await;
+        let before = s.map.read().expect("lock").clone();
+        let shared = s.clone();
+        let Ok(Some(map)) = tokio::task::spawn_blocking(move || shared.current_map()).await else {
+            continue;
+        };
+        if !before.is_some_and(|b| Arc::ptr_eq(&b, &map)) {
+            replan_if_blocked(&s, &slot, &map, "the new inflation");
+        }
     }
 }
 

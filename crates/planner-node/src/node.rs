@@ -27,11 +27,10 @@ use crate::convert;
 use crate::follow;
 use crate::inputs;
 use crate::lifecycle_services;
-use crate::localization::Localization;
 use crate::outputs::{CmdVel, Outputs};
-use crate::params::{validate_parameter, with_weight, WEIGHTS};
+use crate::params::{validate_parameter, with_setting, SETTINGS};
 use crate::planning::{self, install_map};
-use crate::state::{GoalSlot, Live, Shared};
+use crate::state::{GoalSlot, Shared};
 use anyhow::Result;
 use chassis::Twist2;
 use log::{error, info, warn};
@@ -50,7 +49,6 @@ use patrol_msgs::nav2_msgs::{
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
-use planner_core::geometry::Pose2;
 use planner_core::params::ParamError;
 use planner_io::parameters::ParameterFile;
 use ros2_client::action::{ActionServerQosPolicies, AsyncActionServer};
@@ -60,16 +58,16 @@ use ros2_client::{
     ServiceMapping, ServiceTypeName,
 };
 use ros_edge::naming::Naming;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, RwLock};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
 
-/// `config` with the objective weight `name` set (`params::WEIGHTS`), or why not.
-fn weight(
+/// `config` with the setting `name` set (`params::SETTINGS`), or why not.
+fn setting(
     config: &planner_core::config::PlannerConfig,
     name: &str,
     value: f64,
 ) -> Result<planner_core::config::PlannerConfig, String> {
-    with_weight(config, name, value)
+    with_setting(config, name, value)
         .unwrap_or_else(|| Err(format!("`{name}` cannot be set at run time")))
 }
 
@@ -81,39 +79,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         node: params,
         ..
     } = file;
-    let live = Live {
-        planner: planning.planner,
-        max_planning_time: planning.max_planning_time,
-        tolerance: planning.tolerance,
-        config: planning.clone(),
-    };
-    let shared = Arc::new(Shared {
-        params: params.clone(),
-        planning,
-        live: RwLock::new(live.clone()),
-        map: RwLock::new(None),
-        start: RwLock::new(None),
-        goals: AtomicU64::new(0),
-        localization: std::sync::Mutex::new(Localization::new(
-            Pose2::new(
-                params.map_to_odom[0],
-                params.map_to_odom[1],
-                params.map_to_odom[2],
-            ),
-            params.track_map_to_odom,
-        )),
-        odom: RwLock::new(None),
-        follower: std::sync::Mutex::new(None),
-        followed: std::sync::Mutex::new(None),
-        moving: AtomicBool::new(false),
-        // Without a lifecycle manager the node configures and activates itself.
-        lifecycle: RwLock::new(if params.autostart {
-            crate::lifecycle::State::Active
-        } else {
-            crate::lifecycle::State::Unconfigured
-        }),
-    });
+    let shared = Arc::new(Shared::new(params.clone(), planning));
+    let live = shared.live.read().expect("lock").clone();
     let on_set = shared.clone();
+    let settings_changed = Arc::new(tokio::sync::Notify::new());
+    let on_change = settings_changed.clone();
     let mut options = NodeOptions::new()
         .enable_rosout(true)
         .start_parameter_services(true)
@@ -125,6 +95,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
         .parameter_validator(Box::new(validate_parameter))
         .parameter_set_action(Box::new(move |name, value| {
+            let settings_changed = &on_change;
             let mut l = on_set
                 .live
                 .write()
@@ -135,15 +106,17 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
                 }
                 ("max_planning_time", ParameterValue::Double(v)) => l.max_planning_time = *v,
                 ("tolerance", ParameterValue::Double(v)) => l.tolerance = *v,
-                (_, ParameterValue::Double(v)) => l.config = weight(&l.config, name, *v)?,
+                (_, ParameterValue::Double(v)) => l.config = setting(&l.config, name, *v)?,
                 // `ros2 param set ... swarm.safety_weight 0` sends an integer.
-                (_, ParameterValue::Integer(v)) => l.config = weight(&l.config, name, *v as f64)?,
+                (_, ParameterValue::Integer(v)) => l.config = setting(&l.config, name, *v as f64)?,
                 _ => return Err(format!("`{name}` cannot be set at run time")),
             }
             info!("parameter {name} set to {value:?}");
+            // A changed inflation is made into the grid now, not by the next plan.
+            settings_changed.notify_one();
             Ok(())
         }));
-    for w in WEIGHTS {
+    for w in SETTINGS {
         options = options.declare_parameter(w.name, ParameterValue::Double((w.get)(&live.config)));
     }
     let (context, domain) = ros_edge::context()?;
@@ -456,6 +429,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         goal_tx.clone(),
         grid_source,
         own,
+    ));
+    tasks.spawn(inputs::remake_grid_on_change(
+        shared.clone(),
+        settings_changed,
+        goal_tx.clone(),
     ));
     tasks.spawn(inputs::receive_start_poses(
         shared.clone(),

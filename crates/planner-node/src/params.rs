@@ -1,73 +1,100 @@
 //! The parameters `ros2 param set` may change while the node runs, and how each value is checked
-//! before ros2-client stores it. The parameter file itself (planning keys and the node's own) is
-//! read by `planner_io::parameters`, the same way `patrol-plan --config` reads it.
+//! before ros2-client stores it: the planner, its time and tolerance, the objective weights and
+//! the costmap's inflation (as costmap_2d takes `inflation_radius` and the others at run time).
+//! The parameter file itself (planning keys and the node's own) is read by
+//! `planner_io::parameters`, the same way `patrol-plan --config` reads it.
 
 use planner_core::config::PlannerConfig;
 use planner_core::PlannerName;
 use ros2_client::ParameterValue;
 
 /// A planning value settable at run time: its name and where it lives in [`PlannerConfig`].
-pub struct Weight {
+pub struct Setting {
     pub name: &'static str,
     pub get: fn(&PlannerConfig) -> f64,
     pub set: fn(&mut PlannerConfig, f64),
 }
 
-/// The objective weights `ros2 param set` may change (issue 13): the next plan uses them. Each
-/// is checked by the planners' own parameter rules (`PlannerConfig::validate`) before it is
-/// taken, so a value the parameter file would refuse is refused here too.
-pub const WEIGHTS: &[Weight] = &[
-    Weight {
+/// The numbers `ros2 param set` may change: the objective weights (issue 13) and the costmap's
+/// inflation. The next plan uses them; a changed inflation makes the planning grid again from
+/// the map it was made from (`Shared::current_map`), as costmap_2d re-inflates its costmap when
+/// its inflation layer's parameters change, so a Nav2 user tunes them as Nav2's tuning guide
+/// does, live. Each is checked by the planners' own parameter rules (`PlannerConfig::validate`)
+/// before it is taken, so a value the parameter file would refuse is refused here too.
+pub const SETTINGS: &[Setting] = &[
+    Setting {
         name: "swarm.safety_weight",
         get: |c| c.swarm.safety_weight,
         set: |c, v| c.swarm.safety_weight = v,
     },
-    Weight {
+    Setting {
         name: "swarm.length_weight",
         get: |c| c.swarm.length_weight,
         set: |c, v| c.swarm.length_weight = v,
     },
-    Weight {
+    Setting {
         name: "genetic.weight_length",
         get: |c| c.genetic.weight_length,
         set: |c, v| c.genetic.weight_length = v,
     },
-    Weight {
+    Setting {
         name: "genetic.weight_safety",
         get: |c| c.genetic.weight_safety,
         set: |c, v| c.genetic.weight_safety = v,
     },
-    Weight {
+    Setting {
         name: "genetic.weight_energy",
         get: |c| c.genetic.weight_energy,
         set: |c, v| c.genetic.weight_energy = v,
     },
-    Weight {
+    Setting {
         name: "genetic.weight_cost",
         get: |c| c.genetic.weight_cost,
         set: |c, v| c.genetic.weight_cost = v,
     },
-    Weight {
+    Setting {
         name: "colony.cost_weight",
         get: |c| c.colony.cost_weight,
         set: |c, v| c.colony.cost_weight = v,
     },
-    Weight {
+    Setting {
         name: "search.cost_travel_multiplier",
         get: |c| c.search.cost_travel_multiplier,
         set: |c, v| c.search.cost_travel_multiplier = v,
     },
+    // Not `occupied_threshold` or `allow_unknown`: which cells are obstacles is the map's
+    // reading, set with it, as Nav2's static layer reads its thresholds once.
+    Setting {
+        name: "costmap.robot_radius",
+        get: |c| c.costmap.robot_radius,
+        set: |c, v| c.costmap.robot_radius = v,
+    },
+    Setting {
+        name: "costmap.safety_margin",
+        get: |c| c.costmap.safety_margin,
+        set: |c, v| c.costmap.safety_margin = v,
+    },
+    Setting {
+        name: "costmap.inflation_radius",
+        get: |c| c.costmap.inflation_radius,
+        set: |c, v| c.costmap.inflation_radius = v,
+    },
+    Setting {
+        name: "costmap.cost_scaling_factor",
+        get: |c| c.costmap.cost_scaling_factor,
+        set: |c, v| c.costmap.cost_scaling_factor = v,
+    },
 ];
 
-/// `config` with the weight `name` set to `value`, if `name` is one and the result is valid.
-pub fn with_weight(
+/// `config` with the setting `name` set to `value`, if `name` is one and the result is valid.
+pub fn with_setting(
     config: &PlannerConfig,
     name: &str,
     value: f64,
 ) -> Option<Result<PlannerConfig, String>> {
-    let weight = WEIGHTS.iter().find(|w| w.name == name)?;
+    let setting = SETTINGS.iter().find(|w| w.name == name)?;
     let mut changed = config.clone();
-    (weight.set)(&mut changed, value);
+    (setting.set)(&mut changed, value);
     Some(
         changed
             .validate()
@@ -76,13 +103,17 @@ pub fn with_weight(
     )
 }
 
-/// Whether the weight `name` may take `value` by the planners' rules. Every weight's rule is a
+/// Whether the setting `name` may take `value` by the planners' rules. Every setting's rule is a
 /// range of its own (none depends on another value), so checking it on the defaults decides.
 fn in_range(name: &str, value: f64) -> Result<(), String> {
-    match with_weight(&PlannerConfig::default(), name, value) {
+    match with_setting(&PlannerConfig::default(), name, value) {
         Some(Err(e)) => Err(e),
         _ => Ok(()),
     }
+}
+
+fn is_setting(name: &str) -> bool {
+    SETTINGS.iter().any(|w| w.name == name)
 }
 
 /// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
@@ -110,7 +141,7 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
         // as well as when the value is applied: ros2-client validates every value of a
         // SetParametersAtomically request before it applies the first, so a request with one
         // value out of range changes nothing.
-        (n, ParameterValue::Double(v)) if WEIGHTS.iter().any(|w| w.name == n) => {
+        (n, ParameterValue::Double(v)) if is_setting(n) => {
             if v.is_finite() {
                 in_range(n, *v)
             } else {
@@ -118,12 +149,8 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
             }
         }
         // `ros2 param set ... swarm.safety_weight 0` sends an integer.
-        (n, ParameterValue::Integer(v)) if WEIGHTS.iter().any(|w| w.name == n) => {
-            in_range(n, *v as f64)
-        }
-        (n, v) if WEIGHTS.iter().any(|w| w.name == n) => {
-            Err(format!("{name} must be a number, not {v:?}"))
-        }
+        (n, ParameterValue::Integer(v)) if is_setting(n) => in_range(n, *v as f64),
+        (n, v) if is_setting(n) => Err(format!("{name} must be a number, not {v:?}")),
         _ => Err(format!("`{name}` cannot be set at run time")),
     }
 }
@@ -133,16 +160,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_weight_reads_and_writes_its_own_field_and_is_range_checked() {
+    fn every_setting_reads_and_writes_its_own_field_and_is_range_checked() {
         let base = PlannerConfig::default();
-        for w in WEIGHTS {
-            let changed = with_weight(&base, w.name, 0.25).unwrap().unwrap();
+        for w in SETTINGS {
+            let changed = with_setting(&base, w.name, 0.25).unwrap().unwrap();
             assert_eq!((w.get)(&changed), 0.25, "{}", w.name);
-            // Every other weight is left as it was.
-            for other in WEIGHTS.iter().filter(|o| o.name != w.name) {
+            // Every other setting is left as it was.
+            for other in SETTINGS.iter().filter(|o| o.name != w.name) {
                 assert_eq!((other.get)(&changed), (other.get)(&base), "{}", other.name);
             }
-            let refused = with_weight(&base, w.name, -1.0).unwrap();
+            let refused = with_setting(&base, w.name, -1.0).unwrap();
             assert!(refused.is_err(), "{} took -1", w.name);
             assert!(validate_parameter(w.name, &ParameterValue::Double(f64::NAN)).is_err());
             assert!(validate_parameter(w.name, &ParameterValue::Integer(1)).is_ok());
@@ -153,9 +180,17 @@ mod tests {
             assert!(validate_parameter(w.name, &ParameterValue::Double(-1.0)).is_err());
             assert!(validate_parameter(w.name, &ParameterValue::Integer(-1)).is_err());
         }
-        assert!(with_weight(&base, "swarm.safety_weight", 1.5)
+        assert!(with_setting(&base, "swarm.safety_weight", 1.5)
             .unwrap()
             .is_err());
-        assert!(with_weight(&base, "swarm.population", 1.0).is_none());
+        // The costmap's own bounds: no robot is 100 m wide.
+        assert!(with_setting(&base, "costmap.robot_radius", 150.0)
+            .unwrap()
+            .is_err());
+        assert!(with_setting(&base, "swarm.population", 1.0).is_none());
+        // Which cells are obstacles is read with the map, not set at run time.
+        assert!(
+            validate_parameter("costmap.occupied_threshold", &ParameterValue::Integer(50)).is_err()
+        );
     }
 }

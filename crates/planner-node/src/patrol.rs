@@ -126,7 +126,7 @@ fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> Vec<usize> {
     if !s.params.order_waypoints || poses.len() < 3 {
         return given;
     }
-    let Some(map) = s.map.read().expect("lock").clone() else {
+    let Some(map) = s.current_map() else {
         return given;
     };
     let file = RouteFile {

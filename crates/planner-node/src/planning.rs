@@ -12,7 +12,6 @@ use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::GridMap;
-use planner_core::grid::PlanningGrid;
 use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
@@ -50,7 +49,7 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     if let Some(refusal) = s.refusal() {
         return failed(refusal);
     }
-    let Some(map) = s.map.read().expect("lock").clone() else {
+    let Some(map) = s.current_map() else {
         return failed(Failure::new(
             ResultCode::NoMap,
             "no map yet: publish /map or set map_yaml",
@@ -119,21 +118,15 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
 
 /// Validates a map into a planning grid (off the async threads) and makes it the current one.
 pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Level) {
-    let costmap = s.planning.costmap.clone();
+    // The costmap parameters as they are now; one set while this grid is made is caught up
+    // with by the next `current_map`.
+    let costmap = s.live.read().expect("lock").config.costmap.clone();
     let (w, h) = (map.width(), map.height());
     // With a costmap topic the costmap is the planning grid, taken as it is (already inflated,
     // graded); otherwise the node inflates the map itself.
     let as_costmap = !s.params.costmap_topic.is_empty();
-    match tokio::task::spawn_blocking(move || {
-        if as_costmap {
-            Ok(MapState {
-                grid: PlanningGrid::from_costmap(&map, costmap.allow_unknown),
-            })
-        } else {
-            PlanningGrid::new(&map, &costmap).map(|grid| MapState { grid })
-        }
-    })
-    .await
+    match tokio::task::spawn_blocking(move || MapState::new(Arc::new(map), as_costmap, &costmap))
+        .await
     {
         Ok(Ok(state)) => {
             *s.map.write().expect("lock") = Some(Arc::new(state));

@@ -6,7 +6,8 @@ use crate::localization::Localization;
 use chassis::follower::Follower;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::Pose2;
-use planner_core::grid::PlanningGrid;
+use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
+use planner_core::params::ParamError;
 use planner_core::PlannerName;
 use planner_io::parameters::NodeParams;
 use std::sync::atomic::{AtomicBool, AtomicU64};
@@ -19,14 +20,58 @@ pub struct Live {
     pub planner: PlannerName,
     pub max_planning_time: f64,
     pub tolerance: f64,
-    /// The planning configuration with the objective weights as last set
-    /// (`crate::params::WEIGHTS`); the next plan is built from it.
+    /// The planning configuration with the weights and the inflation as last set
+    /// (`crate::params::SETTINGS`); the next plan is built from it.
     pub config: PlannerConfig,
 }
 
-/// A validated map's planning grid (inflated obstacles, clearance, the map's metadata).
+/// A validated map and the planning grid made from it (inflated obstacles, clearance, costs, the
+/// map's metadata). The map is kept beside its grid so that a changed inflation
+/// (`ros2 param set /patrol_planner costmap.inflation_radius ...`) makes the grid again from it,
+/// as costmap_2d re-inflates its master grid when its inflation parameters change.
 pub struct MapState {
     pub grid: PlanningGrid,
+    map: Arc<GridMap>,
+    /// The map is a costmap, taken as it is: only `allow_unknown` reads it.
+    as_costmap: bool,
+    /// The costmap parameters the grid was made with.
+    made_with: InflationConfig,
+}
+
+impl MapState {
+    /// Makes `map`'s planning grid: the node's inflation of it by `costmap`, or, with
+    /// `as_costmap`, the map as a costmap (already inflated and graded).
+    pub fn new(
+        map: Arc<GridMap>,
+        as_costmap: bool,
+        costmap: &InflationConfig,
+    ) -> Result<Self, ParamError> {
+        let grid = if as_costmap {
+            PlanningGrid::from_costmap(&map, costmap.allow_unknown)
+        } else {
+            PlanningGrid::new(&map, costmap)?
+        };
+        Ok(Self {
+            grid,
+            map,
+            as_costmap,
+            made_with: costmap.clone(),
+        })
+    }
+
+    /// Whether the grid is what `costmap` would make of the map.
+    pub fn is_made_with(&self, costmap: &InflationConfig) -> bool {
+        if self.as_costmap {
+            self.made_with.allow_unknown == costmap.allow_unknown
+        } else {
+            self.made_with == *costmap
+        }
+    }
+
+    /// The same map's grid made with `costmap`.
+    pub fn remade(&self, costmap: &InflationConfig) -> Result<Self, ParamError> {
+        Self::new(self.map.clone(), self.as_costmap, costmap)
+    }
 }
 
 /// What the tasks share.
@@ -36,7 +81,12 @@ pub struct Shared {
     /// The planning parameters from the file; `live` overrides the ones set at run time.
     pub planning: PlannerConfig,
     pub live: RwLock<Live>,
+    /// The current map; read it with [`Shared::current_map`], which brings its grid up to the
+    /// costmap parameters as last set.
     pub map: RwLock<Option<Arc<MapState>>>,
+    /// Held while a grid is made again for changed costmap parameters, so that two requests
+    /// arriving together do not both make it.
+    pub remaking: Mutex<()>,
     /// The latest start pose (map frame) and when it arrived.
     pub start: RwLock<Option<(Pose2, Instant)>>,
     /// Counts goals: a running goal plan stops when it moves on.
@@ -57,6 +107,84 @@ pub struct Shared {
 }
 
 impl Shared {
+    /// The state at start: the parameter file's settings, no map or pose yet, and the lifecycle
+    /// state `autostart` gives (without a lifecycle manager the node configures and activates
+    /// itself).
+    pub fn new(params: NodeParams, planning: PlannerConfig) -> Self {
+        let live = Live {
+            planner: planning.planner,
+            max_planning_time: planning.max_planning_time,
+            tolerance: planning.tolerance,
+            config: planning.clone(),
+        };
+        let [x, y, yaw] = params.map_to_odom;
+        Self {
+            localization: Mutex::new(Localization::new(
+                Pose2::new(x, y, yaw),
+                params.track_map_to_odom,
+            )),
+            lifecycle: RwLock::new(if params.autostart {
+                crate::lifecycle::State::Active
+            } else {
+                crate::lifecycle::State::Unconfigured
+            }),
+            params,
+            planning,
+            live: RwLock::new(live),
+            map: RwLock::new(None),
+            remaking: Mutex::new(()),
+            start: RwLock::new(None),
+            goals: AtomicU64::new(0),
+            odom: RwLock::new(None),
+            follower: Mutex::new(None),
+            followed: Mutex::new(None),
+            moving: AtomicBool::new(false),
+        }
+    }
+
+    /// The current map, its grid made with the costmap parameters as they are now: a grid made
+    /// under values `ros2 param set` has since changed is made again first (blocking: call it
+    /// off the async threads; it takes as long as inflating the map). `None` before any map.
+    pub fn current_map(&self) -> Option<Arc<MapState>> {
+        let wanted = || self.live.read().expect("lock").config.costmap.clone();
+        let current = || self.map.read().expect("lock").clone();
+        let map = current()?;
+        if map.is_made_with(&wanted()) {
+            return Some(map);
+        }
+        let _one_at_a_time = self.remaking.lock().expect("lock");
+        // Made meanwhile by whoever held the lock, or replaced by a newer map.
+        let map = current()?;
+        let costmap = wanted();
+        if map.is_made_with(&costmap) {
+            return Some(map);
+        }
+        let t0 = Instant::now();
+        match map.remade(&costmap) {
+            Ok(fresh) => {
+                let fresh = Arc::new(fresh);
+                let mut slot = self.map.write().expect("lock");
+                // A map that arrived while this one was made stays: it is the newer, and the
+                // next call brings it up to date in turn.
+                if slot.as_ref().is_some_and(|m| Arc::ptr_eq(m, &map)) {
+                    *slot = Some(fresh.clone());
+                }
+                log::info!(
+                    "costmap parameters changed: the {} x {} grid made again in {:.0} ms",
+                    fresh.grid.width(),
+                    fresh.grid.height(),
+                    t0.elapsed().as_secs_f64() * 1e3
+                );
+                Some(fresh)
+            }
+            // The values were validated when set, so this is not expected; the old grid serves.
+            Err(e) => {
+                log::error!("costmap parameters: the grid could not be made again: {e}");
+                Some(map)
+            }
+        }
+    }
+
     /// Why the node cannot plan now, if it cannot: it is not active.
     pub fn refusal(&self) -> Option<crate::result::Failure> {
         let state = *self.lifecycle.read().expect("lock");
@@ -77,3 +205,89 @@ pub type Followed = (Pose2, Vec<(f64, f64)>);
 
 /// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
 pub type GoalSlot = Option<(u64, Pose2)>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use planner_core::geometry::Cell;
+    use planner_core::grid::MapInfo;
+
+    /// A 40 x 10 map at 0.1 m with a wall across its left end (column 0).
+    fn wall_map() -> GridMap {
+        let (w, h) = (40, 10);
+        let data = (0..w * h)
+            .map(|i| if i % w == 0 { 100 } else { 0 })
+            .collect();
+        let info = MapInfo {
+            width: w as u32,
+            height: h as u32,
+            resolution: 0.1,
+            origin: Pose2::new(0.0, 0.0, 0.0),
+        };
+        GridMap::new(info, data).unwrap()
+    }
+
+    fn shared_with(map: GridMap, as_costmap: bool) -> Shared {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let costmap = s.live.read().unwrap().config.costmap.clone();
+        let state = MapState::new(Arc::new(map), as_costmap, &costmap).unwrap();
+        *s.map.write().unwrap() = Some(Arc::new(state));
+        s
+    }
+
+    #[test]
+    fn a_changed_inflation_makes_the_grid_again_once() {
+        let s = shared_with(wall_map(), false);
+        let first = s.current_map().unwrap();
+        assert!(
+            Arc::ptr_eq(&first, &s.current_map().unwrap()),
+            "unchanged: the same grid"
+        );
+        // 0.45 m inflated by default: the cell 0.6 m off the wall is free, and 0.3 m is not.
+        let (near, far) = (Cell::new(6, 5), Cell::new(12, 5));
+        assert!(first.grid.is_free(far) && !first.grid.is_free(Cell::new(3, 5)));
+        let cost_before = first.grid.cost(far);
+        s.live.write().unwrap().config.costmap.safety_margin = 0.6;
+        let wider = s.current_map().unwrap();
+        assert!(!Arc::ptr_eq(&first, &wider));
+        assert!(
+            !wider.grid.is_free(near),
+            "0.85 m inflated: 0.6 m off the wall is blocked"
+        );
+        assert!(wider.grid.is_free(Cell::new(10, 5)));
+        assert!(
+            Arc::ptr_eq(&wider, &s.current_map().unwrap()),
+            "made once, then kept"
+        );
+        assert!(
+            Arc::ptr_eq(&wider, s.map.read().unwrap().as_ref().unwrap()),
+            "and installed"
+        );
+        // The graded costs follow the inflation's own parameters.
+        s.live.write().unwrap().config.costmap.cost_scaling_factor = 10.0;
+        let steeper = s.current_map().unwrap();
+        assert!(
+            steeper.grid.cost(far) < cost_before,
+            "{} -> {}",
+            cost_before,
+            steeper.grid.cost(far)
+        );
+    }
+
+    #[test]
+    fn a_costmap_taken_as_it_is_ignores_the_inflation() {
+        let s = shared_with(wall_map(), true);
+        let first = s.current_map().unwrap();
+        s.live.write().unwrap().config.costmap.inflation_radius = 3.0;
+        assert!(Arc::ptr_eq(&first, &s.current_map().unwrap()));
+        // Only its reading of unknown cells is the node's.
+        s.live.write().unwrap().config.costmap.allow_unknown = true;
+        assert!(!Arc::ptr_eq(&first, &s.current_map().unwrap()));
+    }
+
+    #[test]
+    fn no_map_no_grid() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        assert!(s.current_map().is_none());
+    }
+}
