@@ -1,18 +1,22 @@
 """patrol_planner's services from outside, with rclpy's own clients (Fast DDS), as `ros2 service
 call` and `ros2 param set` use them: GetPlan on /patrol_planner/make_plan (a plan well over one
 datagram, so the reply is fragmented on the wire), the parameter services switching the planner
-at run time and refusing bad values with a reason, the inflation set at run time, and the node's
-own log lines on /rosout.
+at run time and refusing bad values with a reason, the inflation set at run time and the costmap
+the node publishes of it, and the node's own log lines on /rosout.
 Runs after test_node.py, on the same node, and leaves the planner as it found it."""
 import math
+
+import numpy as np
 
 from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
 from rclpy.serialization import serialize_message
+from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetPlan
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from conftest import call_service, stamped
-from test_node import ORIGIN, assert_collision_free, plan_to, use_test_map, world
+from test_node import ORIGIN, RES, H, W, assert_collision_free, plan_to, use_test_map, world
 
 MAKE_PLAN = "/patrol_planner/make_plan"
 
@@ -122,6 +126,51 @@ def test_the_inflation_set_at_run_time_reshapes_the_next_plan(ros):
     finally:
         assert set_param(ros, "costmap.safety_margin", margin).successful
         assert set_param(ros, "planner", planner).successful
+
+
+def test_the_planning_grid_is_published_as_a_costmap(ros):
+    """/patrol_planner/costmap is the grid the planners weigh, as costmap_2d publishes a costmap (what
+    RViz's "costmap" colour scheme draws): walls lethal (100), the inflated band inscribed (99), the
+    graded costs below, unknown cells unknown (-1); a new inflation set at run time is published
+    again, once made."""
+    grid = use_test_map(ros)
+    costmaps = []
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    sub = ros.node.create_subscription(OccupancyGrid, "/patrol_planner/costmap", costmaps.append, latched)
+    margin = get_param(ros, "costmap.safety_margin").double_value
+
+    def test_map_costmaps(after):
+        for c in costmaps[after:]:
+            if (c.info.width, c.info.height) == (W, H):  # not an earlier test's map
+                assert c.header.frame_id == "map" and abs(c.info.resolution - RES) < 1e-6
+                assert (c.info.origin.position.x, c.info.origin.position.y) == ORIGIN
+                yield np.array(c.data, dtype=np.int8).reshape(H, W)
+
+    def costmap(after, ok, what):
+        """The first costmap of the test map received after the `after`-th for which `ok` holds."""
+        ros.spin_until(lambda: any(ok(c) for c in test_map_costmaps(after)), 20, what)
+        return next(c for c in test_map_costmaps(after) if ok(c))
+
+    try:
+        first = costmap(0, lambda c: True, "the test map's costmap")
+        assert set(np.unique(first)) <= {-1, *range(0, 101)}
+        assert (first[grid == 100] == 100).all(), "the walls are lethal"
+        assert (first[grid == -1] == -1).all(), "unknown cells stay unknown"
+        inscribed = int((first == 99).sum())
+        graded = (first > 0) & (first < 99)
+        assert inscribed > 0 and graded.any() and (first == 0).any(), np.unique(first)
+        # Along a row off the wall's right face (u 6.0 to 7.5, v 3.0): inscribed, then falling.
+        row = first[int(3.0 / RES), int(6.0 / RES):int(7.5 / RES)]
+        assert row[0] == 99 and row[-1] < row[6] and (np.diff(row.astype(int)) <= 0).all(), row
+        n = len(costmaps)
+        assert set_param(ros, "costmap.safety_margin", 0.5).successful
+        costmap(n, lambda c: (c == 99).sum() > inscribed, "a costmap with the wider inscribed band")
+        n = len(costmaps)
+        assert set_param(ros, "costmap.safety_margin", margin).successful
+        costmap(n, lambda c: (c == first).all(), "the old inflation's costmap back")
+    finally:
+        assert set_param(ros, "costmap.safety_margin", margin).successful
+        ros.node.destroy_subscription(sub)
 
 
 def test_the_nodes_own_log_lines_reach_rosout(ros):

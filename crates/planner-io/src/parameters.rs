@@ -38,6 +38,12 @@ pub struct NodeParams {
     pub odom_frame: String,
     /// Publish every Pareto-front path on `/patrol_planner/pareto` for RViz.
     pub publish_pareto: bool,
+    /// Publish the planning grid on `/patrol_planner/costmap` (latched), as costmap_2d publishes
+    /// a costmap, each time it is made (a new map, a changed inflation): the obstacles, inflation
+    /// and graded costs the planners weigh, for RViz's "costmap" colour scheme. Not with
+    /// `costmap_topic`, whose costmap is already published. Holding it latched costs about 2 B per
+    /// cell (8 MB on Nav2's 2000 x 2000 benchmark map).
+    pub publish_costmap: bool,
     /// Follow each goal's plan: publish `/cmd_vel` from `/odom` (regulated pure pursuit).
     pub follow_plan: bool,
     /// The chassis limits the follower keeps to, also forwarded on `/patrol_planner/twist_limits`.
@@ -103,6 +109,7 @@ impl Default for NodeParams {
             track_map_to_odom: true,
             odom_frame: "odom".into(),
             publish_pareto: true,
+            publish_costmap: true,
             follow_plan: true,
             twist_limits: TwistLimits::default(),
             follower: FollowerParams::default(),

@@ -11,7 +11,9 @@ use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
 use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
 use planner_core::geometry::{Point2, Pose2};
-use planner_core::grid::{GridMap, MapError, MapInfo};
+use planner_core::grid::inflation::occupancy_from_cost;
+use planner_core::grid::map::UNKNOWN;
+use planner_core::grid::{GridMap, MapError, MapInfo, PlanningGrid};
 use planner_core::planner::Plan;
 use planner_core::PlannerName;
 use ros_edge::quaternion_from_yaw;
@@ -132,7 +134,32 @@ pub fn grid_from_msg(msg: &OccupancyGrid) -> Result<GridMap, MapError> {
 
 /// The map as a message (what the node publishes when it loads `map_yaml` itself).
 pub fn msg_from_grid(map: &GridMap, frame: &str, stamp: Time) -> OccupancyGrid {
-    let info = map.info();
+    grid_msg(map.info(), frame, stamp, map.data().to_vec())
+}
+
+/// The planning grid made from `map` as costmap_2d publishes its costmap: each cell's cost
+/// through costmap_2d's translation table (lethal 100, inscribed 99, the graded costs 1..98, free
+/// 0), and the map's unknown cells -1, as costmap_2d marks them with `track_unknown_space` (Nav2's
+/// default for the global costmap). RViz's "costmap" colour scheme draws it: a user sees the
+/// obstacles and inflation the planners weigh, as Nav2 users look at `/global_costmap/costmap`.
+pub fn costmap_msg(map: &GridMap, grid: &PlanningGrid, frame: &str, stamp: Time) -> OccupancyGrid {
+    let data = map
+        .data()
+        .iter()
+        .zip(grid.costs())
+        .map(|(&v, &cost)| {
+            if v == UNKNOWN {
+                -1
+            } else {
+                occupancy_from_cost(cost)
+            }
+        })
+        .collect();
+    grid_msg(map.info(), frame, stamp, data)
+}
+
+/// An OccupancyGrid of `data` (row-major) over the cells `info` describes.
+fn grid_msg(info: &MapInfo, frame: &str, stamp: Time, data: Vec<i8>) -> OccupancyGrid {
     OccupancyGrid {
         header: Header {
             stamp,
@@ -152,7 +179,7 @@ pub fn msg_from_grid(map: &GridMap, frame: &str, stamp: Time) -> OccupancyGrid {
                 orientation: quaternion_from_yaw(info.origin.yaw),
             },
         },
-        data: map.data().to_vec(),
+        data,
     }
 }
 
@@ -499,6 +526,46 @@ mod tests {
             grid_from_msg(&bad),
             Err(MapError::BadResolution(_))
         ));
+    }
+
+    /// The published costmap reads as costmap_2d's: the wall lethal, the inflated band inscribed,
+    /// the graded costs falling away from it to free, unknown cells unknown; and planning on it
+    /// as a costmap gives back the node's own free cells.
+    #[test]
+    fn the_planning_grid_is_published_as_costmap_2d_publishes_a_costmap() {
+        use planner_core::grid::InflationConfig;
+        // One row of 40 cells at 0.1 m: a wall at 0, unknown at 39.
+        let info = MapInfo {
+            width: 40,
+            height: 1,
+            resolution: 0.1,
+            origin: Pose2::new(0.0, 0.0, 0.0),
+        };
+        let mut data = vec![0i8; 40];
+        data[0] = 100;
+        data[39] = -1;
+        let map = GridMap::new(info, data).unwrap();
+        let cfg = InflationConfig {
+            allow_unknown: true,
+            ..InflationConfig::default()
+        };
+        let grid = PlanningGrid::new(&map, &cfg).unwrap();
+        let msg = costmap_msg(&map, &grid, "map", Time::default());
+        assert_eq!((msg.info.width, msg.info.height), (40, 1));
+        let v = &msg.data;
+        assert_eq!(v[0], 100);
+        assert_eq!(v[39], -1);
+        // 0.45 m inflated (robot 0.25 + margin 0.2): cells 1-4 inscribed, 5 on graded.
+        assert!(v[1..=4].iter().all(|&c| c == 99), "{v:?}");
+        assert!(v[5] > 0 && v[5] < 99, "{v:?}");
+        assert!(v[5..39].windows(2).all(|w| w[0] >= w[1]), "{v:?}");
+        // Beyond the 1.75 m inflation radius nothing costs.
+        assert_eq!(v[20], 0);
+        let back = PlanningGrid::from_costmap(&grid_from_msg(&msg).unwrap(), true);
+        for x in 0..40 {
+            let c = planner_core::geometry::Cell::new(x, 0);
+            assert_eq!(back.is_free(c), grid.is_free(c), "cell {x}");
+        }
     }
 
     /// A 100 m path at a resolution of 1e-6 m (a map replaced mid-plan, a corrupted one) is

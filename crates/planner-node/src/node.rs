@@ -182,6 +182,20 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     )?;
     let diag_pub =
         Arc::new(node.create_publisher::<DiagnosticArray>(&diag_topic, Some(volatile.clone()))?);
+    // The planning grid as a costmap, latched as costmap_2d publishes its own; not when the node
+    // plans on a costmap topic, which is published already.
+    let costmap_pub = if params.publish_costmap && params.costmap_topic.is_empty() {
+        let t = topic(
+            &mut node,
+            "~/costmap",
+            "nav_msgs",
+            "OccupancyGrid",
+            &latched,
+        )?;
+        Some(node.create_publisher::<OccupancyGrid>(&t, Some(latched.clone()))?)
+    } else {
+        None
+    };
     let pareto_qos = ros_edge::reliable(1, Durability::Volatile);
     let pareto_topic = topic(
         &mut node,
@@ -430,6 +444,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         grid_source,
         own,
     ));
+    if let Some(publisher) = costmap_pub {
+        tasks.spawn(crate::outputs::publish_costmaps(shared.clone(), publisher));
+    }
     tasks.spawn(inputs::remake_grid_on_change(
         shared.clone(),
         settings_changed,

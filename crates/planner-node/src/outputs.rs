@@ -1,14 +1,15 @@
 //! What the node publishes in answer: `/plan`, the Pareto markers, `/diagnostics` (and the log
-//! line that goes with every answer), and the follower's `/cmd_vel`.
+//! line that goes with every answer), and the follower's `/cmd_vel`; and the planning grid as a
+//! costmap each time it is made.
 
 use crate::convert;
 use crate::result::Outcome;
-use crate::state::Shared;
+use crate::state::{MapState, Shared};
 use chassis::Twist2;
 use log::{debug, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{Twist, TwistStamped, Vector3};
-use patrol_msgs::nav_msgs::Path;
+use patrol_msgs::nav_msgs::{OccupancyGrid, Path};
 use patrol_msgs::std_msgs::Header;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::planner::Plan;
@@ -140,6 +141,38 @@ impl Outputs {
                 warn!("pareto: {e:?}");
             }
         }
+    }
+}
+
+/// Publishes each installed planning grid on `publisher` as costmap_2d publishes a costmap
+/// (`publish_costmap`), once per grid: a new map, or the same map made again for a changed
+/// inflation. Grids installed faster than they are published are coalesced into the newest.
+pub async fn publish_costmaps(s: Arc<Shared>, publisher: Publisher<OccupancyGrid>) {
+    let mut last: Option<Arc<MapState>> = None;
+    loop {
+        s.grid_installed.notified().await;
+        let Some(map) = s.map.read().expect("lock").clone() else {
+            continue;
+        };
+        if last.as_ref().is_some_and(|l| Arc::ptr_eq(l, &map)) {
+            continue;
+        }
+        let frame = s.params.global_frame.clone();
+        let grid = map.clone();
+        // One pass over the map: off the async threads on a map of millions of cells.
+        let msg = tokio::task::spawn_blocking(move || {
+            convert::costmap_msg(grid.map(), &grid.grid, &frame, ros_edge::now())
+        })
+        .await;
+        match msg {
+            Ok(msg) => {
+                if let Err(e) = publisher.async_publish(msg).await {
+                    warn!("costmap: {e:?}");
+                }
+            }
+            Err(e) => warn!("costmap task: {e}"),
+        }
+        last = Some(map);
     }
 }
 

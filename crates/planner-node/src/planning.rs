@@ -130,6 +130,7 @@ pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Lev
     {
         Ok(Ok(state)) => {
             *s.map.write().expect("lock") = Some(Arc::new(state));
+            s.grid_installed.notify_one();
             log::log!(level, "map from {source}: {w} x {h} cells");
         }
         Ok(Err(e)) => error!("map from {source} refused: {e}"),

@@ -68,6 +68,11 @@ impl MapState {
         }
     }
 
+    /// The map the grid was made from.
+    pub fn map(&self) -> &GridMap {
+        &self.map
+    }
+
     /// The same map's grid made with `costmap`.
     pub fn remade(&self, costmap: &InflationConfig) -> Result<Self, ParamError> {
         Self::new(self.map.clone(), self.as_costmap, costmap)
@@ -87,6 +92,9 @@ pub struct Shared {
     /// Held while a grid is made again for changed costmap parameters, so that two requests
     /// arriving together do not both make it.
     pub remaking: Mutex<()>,
+    /// Told each time a grid is installed (a new map, or one made again), so the grid can be
+    /// published as a costmap (`publish_costmap`).
+    pub grid_installed: tokio::sync::Notify,
     /// The latest start pose (map frame) and when it arrived.
     pub start: RwLock<Option<(Pose2, Instant)>>,
     /// Counts goals: a running goal plan stops when it moves on.
@@ -133,6 +141,7 @@ impl Shared {
             live: RwLock::new(live),
             map: RwLock::new(None),
             remaking: Mutex::new(()),
+            grid_installed: tokio::sync::Notify::new(),
             start: RwLock::new(None),
             goals: AtomicU64::new(0),
             odom: RwLock::new(None),
@@ -168,6 +177,7 @@ impl Shared {
                 // next call brings it up to date in turn.
                 if slot.as_ref().is_some_and(|m| Arc::ptr_eq(m, &map)) {
                     *slot = Some(fresh.clone());
+                    self.grid_installed.notify_one();
                 }
                 log::info!(
                     "costmap parameters changed: the {} x {} grid made again in {:.0} ms",

@@ -519,6 +519,11 @@ impl PlanningGrid {
         self.costs[self.info.index(c)]
     }
 
+    /// Every cell's cost (see [`PlanningGrid::cost`]), row-major as the map's data.
+    pub fn costs(&self) -> &[u8] {
+        &self.costs
+    }
+
     /// A reader of [`PlanningGrid::is_free`] and [`PlanningGrid::cost`] together: the swarms'
     /// safety objective and the weighted delete operation ask both of every cell a candidate
     /// path crosses, thousands of times per plan, in one read where the cost says both.
@@ -604,8 +609,20 @@ pub const INSCRIBED: u8 = 253;
 /// The highest cost of a cell the robot may be in.
 pub const MAX_NON_OBSTACLE: u8 = 252;
 
-/// A costmap cell's cost from its OccupancyGrid value, inverting costmap_2d's publisher (which
-/// maps 0 -> 0, 1..252 -> 1 + 97 * (cost - 1) / 251, 253 -> 99, 254 -> 100, 255 -> -1).
+/// A cost as costmap_2d publishes it on a nav_msgs/OccupancyGrid (its publisher's translation
+/// table): 0 -> 0, 1..252 -> 1 + 97 * (cost - 1) / 251, 253 (inscribed) -> 99, 254 (lethal) ->
+/// 100, 255 (unknown) -> -1, the values RViz's "costmap" colour scheme and Nav2's tools read.
+pub fn occupancy_from_cost(cost: u8) -> i8 {
+    match cost {
+        0 => 0,
+        1..=MAX_NON_OBSTACLE => (1 + 97 * (cost as i32 - 1) / 251) as i8,
+        INSCRIBED => 99,
+        LETHAL => 100,
+        _ => -1,
+    }
+}
+
+/// A costmap cell's cost from its OccupancyGrid value, inverting [`occupancy_from_cost`].
 pub fn cost_from_occupancy(v: i8) -> u8 {
     match v {
         100.. => LETHAL,
@@ -1063,9 +1080,15 @@ mod tests {
         assert!(PlanningGrid::from_costmap(&map, true).is_free(Cell::new(5, 0)));
         // Round trip of costmap_2d's own translation for every graded cost.
         for cost in 1u32..=252 {
-            let v = (1 + 97 * (cost - 1) / 251) as i8;
+            let v = occupancy_from_cost(cost as u8);
+            assert_eq!(v as u32, 1 + 97 * (cost - 1) / 251, "costmap_2d's table");
             let back = cost_from_occupancy(v) as u32;
             assert!(back <= cost && cost - back <= 3, "{cost} -> {v} -> {back}");
+        }
+        // The fixed points of the scale, both ways.
+        for (cost, v) in [(0, 0), (252, 98), (253, 99), (254, 100), (255, -1)] {
+            assert_eq!(occupancy_from_cost(cost), v);
+            assert_eq!(cost_from_occupancy(v), cost);
         }
     }
 
