@@ -15,7 +15,7 @@ use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
 use std::sync::atomic::Ordering;
-use std::sync::Arc;
+use std::sync::{Arc, Weak};
 use std::time::Instant;
 use tokio::sync::watch;
 
@@ -121,10 +121,18 @@ pub async fn receive_maps(
 }
 
 /// After a new map (or a new inflation of it: `why`): the part of the followed path still ahead
-/// of the robot (from the pose nearest it) is checked against `map` with `is_path_valid`'s rule;
-/// if the map blocks it, its goal goes back into the goal slot and is planned again from where
-/// the robot is.
-fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &MapState, why: &str) {
+/// of the robot (from the pose nearest it) is checked against `map` with `is_path_valid`'s rule,
+/// once per grid ([`Shared::checked_grid`]); if the map blocks it, its goal goes back into the
+/// goal slot and is planned again from where the robot is.
+fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapState>, why: &str) {
+    {
+        let mut checked = s.checked_grid.lock().expect("lock");
+        let this = Arc::downgrade(map);
+        if Weak::ptr_eq(&checked, &this) {
+            return;
+        }
+        *checked = this;
+    }
     if s.follower.lock().expect("lock").is_none() {
         return;
     }
@@ -157,23 +165,16 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &MapState,
     }
 }
 
-/// Makes the planning grid again each time `changed` says a setting changed (`ros2 param set`)
-/// and the costmap parameters differ from the grid's, so the next plan does not wait for it,
-/// then checks the path being followed against it as against a new map: a wider inflation may
-/// block it, as a costmap_2d reconfigure makes Nav2's IsPathValid fail and its tree replan.
-pub async fn remake_grid_on_change(
-    s: Arc<Shared>,
-    changed: Arc<tokio::sync::Notify>,
-    slot: watch::Sender<GoalSlot>,
-) {
+/// Makes the planning grid again each time [`Shared::settings_changed`] is told and the costmap
+/// parameters differ from the grid's, so the next plan does not wait for it, then checks the
+/// path being followed against the new grid as against a new map: a wider inflation may block
+/// it, as a costmap_2d reconfigure makes Nav2's IsPathValid fail and its tree replan. Each grid
+/// is checked once, also one a plan made again first.
+pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>) {
     loop {
-        changed.notified().await;
-        let before = s.map.read().expect("lock").clone();
+        s.settings_changed.notified().await;
         let shared = s.clone();
-        let Ok(Some(map)) = tokio::task::spawn_blocking(move || shared.current_map()).await else {
-            continue;
-        };
-        if !before.is_some_and(|b| Arc::ptr_eq(&b, &map)) {
+        if let Ok(Some(map)) = tokio::task::spawn_blocking(move || shared.current_map()).await {
             replan_if_blocked(&s, &slot, &map, "the new inflation");
         }
     }

@@ -82,8 +82,6 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let shared = Arc::new(Shared::new(params.clone(), planning));
     let live = shared.live.read().expect("lock").clone();
     let on_set = shared.clone();
-    let settings_changed = Arc::new(tokio::sync::Notify::new());
-    let on_change = settings_changed.clone();
     let mut options = NodeOptions::new()
         .enable_rosout(true)
         .start_parameter_services(true)
@@ -95,7 +93,6 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
         .parameter_validator(Box::new(validate_parameter))
         .parameter_set_action(Box::new(move |name, value| {
-            let settings_changed = &on_change;
             let mut l = on_set
                 .live
                 .write()
@@ -113,7 +110,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             }
             info!("parameter {name} set to {value:?}");
             // A changed inflation is made into the grid now, not by the next plan.
-            settings_changed.notify_one();
+            on_set.settings_changed.notify_one();
             Ok(())
         }));
     for w in SETTINGS {
@@ -449,7 +446,6 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     }
     tasks.spawn(inputs::remake_grid_on_change(
         shared.clone(),
-        settings_changed,
         goal_tx.clone(),
     ));
     tasks.spawn(inputs::receive_start_poses(

@@ -244,7 +244,14 @@ where
         result.error_msg = "no robot pose yet: publish /initialpose, /amcl_pose or /odom".into();
         return (GoalEndStatus::Aborted, result);
     };
-    let order = visiting_order(s, robot, &poses);
+    // Off the async threads: ordering solves a route over the map (and may make its grid again
+    // after a changed inflation).
+    let order = {
+        let (shared, given) = (s.clone(), poses.clone());
+        tokio::task::spawn_blocking(move || visiting_order(&shared, robot, &given))
+            .await
+            .unwrap_or_else(|_| (0..poses.len()).collect())
+    };
     let tolerance = s.live.read().expect("lock").tolerance;
     let stop_on_failure = s.params.stop_on_failure;
     for pass in 0..=goal.number_of_loops {

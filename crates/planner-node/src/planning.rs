@@ -118,8 +118,8 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
 
 /// Validates a map into a planning grid (off the async threads) and makes it the current one.
 pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Level) {
-    // The costmap parameters as they are now; one set while this grid is made is caught up
-    // with by the next `current_map`.
+    // The costmap parameters as they are now; if one is set while this grid is made, the grid
+    // is made again once installed (below).
     let costmap = s.live.read().expect("lock").config.costmap.clone();
     let (w, h) = (map.width(), map.height());
     // With a costmap topic the costmap is the planning grid, taken as it is (already inflated,
@@ -129,8 +129,12 @@ pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Lev
         .await
     {
         Ok(Ok(state)) => {
+            let stale = !state.is_made_with(&s.live.read().expect("lock").config.costmap);
             *s.map.write().expect("lock") = Some(Arc::new(state));
             s.grid_installed.notify_one();
+            if stale {
+                s.settings_changed.notify_one();
+            }
             log::log!(level, "map from {source}: {w} x {h} cells");
         }
         Ok(Err(e)) => error!("map from {source} refused: {e}"),

@@ -11,7 +11,7 @@ use planner_core::params::ParamError;
 use planner_core::PlannerName;
 use planner_io::parameters::NodeParams;
 use std::sync::atomic::{AtomicBool, AtomicU64};
-use std::sync::{Arc, Mutex, RwLock};
+use std::sync::{Arc, Mutex, RwLock, Weak};
 use std::time::Instant;
 
 /// Settings that `ros2 param set` may change while the node runs.
@@ -95,6 +95,14 @@ pub struct Shared {
     /// Told each time a grid is installed (a new map, or one made again), so the grid can be
     /// published as a costmap (`publish_costmap`).
     pub grid_installed: tokio::sync::Notify,
+    /// Told when a setting changes (`ros2 param set`), and when a map was installed with costmap
+    /// parameters that changed while it was made: the grid is then made again at once
+    /// (`inputs::remake_grid_on_change`), not by the next plan.
+    pub settings_changed: tokio::sync::Notify,
+    /// The last grid the path being followed was checked against (`inputs::replan_if_blocked`),
+    /// so that a grid is checked once, whichever task installed it.
+    /// Weak: it keeps no grid alive.
+    pub checked_grid: Mutex<Weak<MapState>>,
     /// The latest start pose (map frame) and when it arrived.
     pub start: RwLock<Option<(Pose2, Instant)>>,
     /// Counts goals: a running goal plan stops when it moves on.
@@ -142,6 +150,8 @@ impl Shared {
             map: RwLock::new(None),
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
+            settings_changed: tokio::sync::Notify::new(),
+            checked_grid: Mutex::new(Weak::new()),
             start: RwLock::new(None),
             goals: AtomicU64::new(0),
             odom: RwLock::new(None),
@@ -172,11 +182,17 @@ impl Shared {
         match map.remade(&costmap) {
             Ok(fresh) => {
                 let fresh = Arc::new(fresh);
-                let mut slot = self.map.write().expect("lock");
-                // A map that arrived while this one was made stays: it is the newer, and the
-                // next call brings it up to date in turn.
-                if slot.as_ref().is_some_and(|m| Arc::ptr_eq(m, &map)) {
-                    *slot = Some(fresh.clone());
+                let installed = {
+                    let mut slot = self.map.write().expect("lock");
+                    // A map that arrived while this one was made stays: it is the newer, and
+                    // the next call brings it up to date in turn.
+                    let current = slot.as_ref().is_some_and(|m| Arc::ptr_eq(m, &map));
+                    if current {
+                        *slot = Some(fresh.clone());
+                    }
+                    current
+                };
+                if installed {
                     self.grid_installed.notify_one();
                 }
                 log::info!(
