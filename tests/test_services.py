@@ -119,7 +119,7 @@ def test_the_inflation_set_at_run_time_reshapes_the_next_plan(ros):
         print(f"minimum clearance {tight:.3f} m -> {wide:.3f} m with the robot radius 0.25 + margin 0.5")
         assert wide >= 0.75 - 0.05, f"the next plan keeps 0.75 m off the walls, not {wide}"
         refused = set_param(ros, "costmap.inflation_radius", -1.0)
-        assert not refused.successful and "inflation_radius" in refused.reason, refused.reason
+        assert not refused.successful and "`costmap.inflation_radius`" in refused.reason, refused.reason
         assert get_param(ros, "costmap.inflation_radius").double_value == 1.75, "a refused value changes nothing"
         assert set_param(ros, "costmap.safety_margin", margin).successful
         assert abs(min_clearance() - tight) < 1e-9, "the old margin gives the old plan back"

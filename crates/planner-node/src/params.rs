@@ -99,8 +99,17 @@ pub fn with_setting(
         changed
             .validate()
             .map(|()| changed)
-            .map_err(|e| e.to_string()),
+            .map_err(|e| full_name(&e.to_string(), name)),
     )
+}
+
+/// The planners' rules name a value by its key in its own block (`inflation_radius`); a
+/// `ros2 param set` answer names it as it was set (`costmap.inflation_radius`).
+fn full_name(message: &str, name: &str) -> String {
+    match name.rsplit_once('.') {
+        Some((_, key)) => message.replacen(&format!("`{key}`"), &format!("`{name}`"), 1),
+        None => message.to_string(),
+    }
 }
 
 /// Whether the setting `name` may take `value` by the planners' rules. Every setting's rule is a
@@ -183,10 +192,11 @@ mod tests {
         assert!(with_setting(&base, "swarm.safety_weight", 1.5)
             .unwrap()
             .is_err());
-        // The costmap's own bounds: no robot is 100 m wide.
-        assert!(with_setting(&base, "costmap.robot_radius", 150.0)
-            .unwrap()
-            .is_err());
+        // The costmap's own bounds: no robot is 100 m wide. The refusal names the parameter as
+        // it was set.
+        let wide = with_setting(&base, "costmap.robot_radius", 150.0).unwrap();
+        let why = wide.unwrap_err();
+        assert!(why.contains("`costmap.robot_radius`"), "{why}");
         assert!(with_setting(&base, "swarm.population", 1.0).is_none());
         // Which cells are obstacles is read with the map, not set at run time.
         assert!(
