@@ -105,9 +105,7 @@ pub async fn receive_maps(
                 if keep {
                     last = Some(msg);
                 }
-                install_map(&s, map, source, level).await;
-                let installed = s.map.read().expect("lock").clone();
-                if let Some(map) = installed {
+                if let Some(map) = install_map(&s, map, source, level).await {
                     replan_if_blocked(&s, &slot, &map, "the new map");
                 }
             }

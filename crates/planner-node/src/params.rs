@@ -5,6 +5,7 @@
 //! `planner_io::parameters`, the same way `patrol-plan --config` reads it.
 
 use planner_core::config::PlannerConfig;
+use planner_core::params::ParamError;
 use planner_core::PlannerName;
 use ros2_client::ParameterValue;
 
@@ -95,21 +96,20 @@ pub fn with_setting(
     let setting = SETTINGS.iter().find(|w| w.name == name)?;
     let mut changed = config.clone();
     (setting.set)(&mut changed, value);
-    Some(
-        changed
-            .validate()
-            .map(|()| changed)
-            .map_err(|e| full_name(&e.to_string(), name)),
-    )
-}
-
-/// The planners' rules name a value by its key in its own block (`inflation_radius`); a
-/// `ros2 param set` answer names it as it was set (`costmap.inflation_radius`).
-fn full_name(message: &str, name: &str) -> String {
-    match name.rsplit_once('.') {
-        Some((_, key)) => message.replacen(&format!("`{key}`"), &format!("`{name}`"), 1),
-        None => message.to_string(),
-    }
+    Some(changed.validate().map(|()| changed).map_err(|e| {
+        // The planners' rules name a value by its key in its own block
+        // (`inflation_radius`); a `ros2 param set` answer names it as it was set
+        // (`costmap.inflation_radius`).
+        if name.rsplit('.').next() == Some(e.name.as_str()) {
+            ParamError {
+                name: name.into(),
+                ..e
+            }
+            .to_string()
+        } else {
+            e.to_string()
+        }
+    }))
 }
 
 /// Whether the setting `name` may take `value` by the planners' rules. Every setting's rule is a

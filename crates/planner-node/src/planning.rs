@@ -116,8 +116,14 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     }
 }
 
-/// Validates a map into a planning grid (off the async threads) and makes it the current one.
-pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Level) {
+/// Validates a map into a planning grid (off the async threads) and makes it the current one;
+/// returns it, or `None` when the map is refused (the current one stays).
+pub async fn install_map(
+    s: &Shared,
+    map: GridMap,
+    source: &str,
+    level: log::Level,
+) -> Option<Arc<MapState>> {
     // The costmap parameters as they are now; if one is set while this grid is made, the grid
     // is made again once installed (below).
     let costmap = s.live.read().expect("lock").config.costmap.clone();
@@ -130,15 +136,23 @@ pub async fn install_map(s: &Shared, map: GridMap, source: &str, level: log::Lev
     {
         Ok(Ok(state)) => {
             let stale = !state.is_made_with(&s.live.read().expect("lock").config.costmap);
-            *s.map.write().expect("lock") = Some(Arc::new(state));
+            let state = Arc::new(state);
+            *s.map.write().expect("lock") = Some(state.clone());
             s.grid_installed.notify_one();
             if stale {
                 s.settings_changed.notify_one();
             }
             log::log!(level, "map from {source}: {w} x {h} cells");
+            Some(state)
         }
-        Ok(Err(e)) => error!("map from {source} refused: {e}"),
-        Err(e) => error!("map task: {e}"),
+        Ok(Err(e)) => {
+            error!("map from {source} refused: {e}");
+            None
+        }
+        Err(e) => {
+            error!("map task: {e}");
+            None
+        }
     }
 }
 
