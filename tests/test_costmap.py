@@ -12,7 +12,8 @@ SetParametersAtomically request with one value out of range then changes nothing
 And costmap_2d's partial updates (map_msgs/OccupancyGridUpdate on `<costmap>_updates`, what it
 sends between full costmaps unless `always_send_full_costmap`): a band written by an update is
 avoided by the next plan; an update outside the costmap is refused on /diagnostics and changes
-nothing."""
+nothing; and `costmap.inflation_radius`, which shapes only the node's own inflation of a map, is
+refused a new value on a costmap topic, with the reason."""
 import numpy as np
 import rclpy
 from map_msgs.msg import OccupancyGridUpdate
@@ -112,6 +113,25 @@ def test_costmap_updates_are_written_into_the_costmap(tmp_path):
         refused = ros.wait_code(before, "INVALID_INPUT")
         assert "not inside" in refused[1], refused
         assert avoids(), "the refused update changed the costmap"
+
+        # On a costmap taken as it is, the node's own inflation settings would change nothing:
+        # a new value is refused with the reason, the value held is taken, and a setting the
+        # plans still read (cost_travel_multiplier) is taken.
+        def set_double(name, v):
+            value = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=v)
+            request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
+            return call_service(ros, SetParameters, "/patrol_planner/set_parameters", request).results[0]
+
+        held = call_service(
+            ros, GetParameters, "/patrol_planner/get_parameters",
+            GetParameters.Request(names=["costmap.inflation_radius"]),
+        ).values[0].double_value
+        unused = set_double("costmap.inflation_radius", held + 1.0)
+        assert not unused.successful
+        assert TOPIC in unused.reason and "costmap_topic" in unused.reason, unused.reason
+        assert set_double("costmap.inflation_radius", held).successful
+        taken = set_double("search.cost_travel_multiplier", 3.0)
+        assert taken.successful, taken.reason
     finally:
         ros.close()
         stop_binary(proc)

@@ -28,7 +28,7 @@ use crate::follow;
 use crate::inputs;
 use crate::lifecycle_services;
 use crate::outputs::{CmdVel, Outputs};
-use crate::params::{validate_parameter, with_setting, SETTINGS};
+use crate::params::{unused_on_costmap, validate_parameter, with_setting, SETTINGS};
 use crate::planning::{self, install_map};
 use crate::state::{GoalSlot, Shared};
 use anyhow::Result;
@@ -82,6 +82,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let shared = Arc::new(Shared::new(params.clone(), planning));
     let live = shared.live.read().expect("lock").clone();
     let on_set = shared.clone();
+    let on_check = shared.clone();
     let mut options = NodeOptions::new()
         .enable_rosout(true)
         .start_parameter_services(true)
@@ -91,7 +92,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             ParameterValue::Double(live.max_planning_time),
         )
         .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
-        .parameter_validator(Box::new(validate_parameter))
+        .parameter_validator(Box::new(move |name, value| {
+            validate_parameter(name, value)?;
+            let number = match value {
+                ParameterValue::Double(v) => *v,
+                ParameterValue::Integer(v) => *v as f64,
+                _ => return Ok(()),
+            };
+            let live = on_check
+                .live
+                .read()
+                .map_err(|_| "state lock poisoned".to_string())?;
+            unused_on_costmap(name, number, &live.config, &on_check.params.costmap_topic)
+        }))
         .parameter_set_action(Box::new(move |name, value| {
             let mut l = on_set
                 .live

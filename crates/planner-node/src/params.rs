@@ -14,6 +14,9 @@ pub struct Setting {
     pub name: &'static str,
     pub get: fn(&PlannerConfig) -> f64,
     pub set: fn(&mut PlannerConfig, f64),
+    /// The value only shapes the node's own inflation of a map: on a costmap taken as it is
+    /// (`costmap_topic`), whose inflation is its own node's, it changes nothing.
+    pub inflation_only: bool,
 }
 
 /// The numbers `ros2 param set` may change: the objective weights (issue 13) and the costmap's
@@ -27,63 +30,77 @@ pub const SETTINGS: &[Setting] = &[
         name: "swarm.safety_weight",
         get: |c| c.swarm.safety_weight,
         set: |c, v| c.swarm.safety_weight = v,
+        inflation_only: false,
     },
     Setting {
         name: "swarm.length_weight",
         get: |c| c.swarm.length_weight,
         set: |c, v| c.swarm.length_weight = v,
+        inflation_only: false,
     },
     Setting {
         name: "genetic.weight_length",
         get: |c| c.genetic.weight_length,
         set: |c, v| c.genetic.weight_length = v,
+        inflation_only: false,
     },
     Setting {
         name: "genetic.weight_safety",
         get: |c| c.genetic.weight_safety,
         set: |c, v| c.genetic.weight_safety = v,
+        inflation_only: false,
     },
     Setting {
         name: "genetic.weight_energy",
         get: |c| c.genetic.weight_energy,
         set: |c, v| c.genetic.weight_energy = v,
+        inflation_only: false,
     },
     Setting {
         name: "genetic.weight_cost",
         get: |c| c.genetic.weight_cost,
         set: |c, v| c.genetic.weight_cost = v,
+        inflation_only: false,
     },
     Setting {
         name: "colony.cost_weight",
         get: |c| c.colony.cost_weight,
         set: |c, v| c.colony.cost_weight = v,
+        inflation_only: false,
     },
     Setting {
         name: "search.cost_travel_multiplier",
         get: |c| c.search.cost_travel_multiplier,
         set: |c, v| c.search.cost_travel_multiplier = v,
+        inflation_only: false,
     },
     // Not `occupied_threshold` or `allow_unknown`: which cells are obstacles is the map's
     // reading, set with it, as Nav2's static layer reads its thresholds once.
+    // The robot's radius is the potential field's chassis radius too (eq. 9 of the EAPF paper,
+    // unless `apf.chassis_radius` is set), so it counts on a costmap topic as well.
     Setting {
         name: "costmap.robot_radius",
         get: |c| c.costmap.robot_radius,
         set: |c, v| c.costmap.robot_radius = v,
+        inflation_only: false,
     },
     Setting {
         name: "costmap.safety_margin",
         get: |c| c.costmap.safety_margin,
         set: |c, v| c.costmap.safety_margin = v,
+        inflation_only: true,
     },
     Setting {
         name: "costmap.inflation_radius",
         get: |c| c.costmap.inflation_radius,
         set: |c, v| c.costmap.inflation_radius = v,
+        inflation_only: true,
     },
     Setting {
         name: "costmap.cost_scaling_factor",
         get: |c| c.costmap.cost_scaling_factor,
         set: |c, v| c.costmap.cost_scaling_factor = v,
+        inflation_only: true,
     },
 ];
 
@@ -117,6 +134,30 @@ pub fn with_setting(
 fn in_range(name: &str, value: f64) -> Result<(), String> {
     match with_setting(&PlannerConfig::default(), name, value) {
         Some(Err(e)) => Err(e),
+        _ => Ok(()),
+    }
+}
+
+/// Refuses a new value for a setting that only shapes the node's own inflation of a map
+/// (`costmap.safety_margin`, `inflation_radius`, `cost_scaling_factor`) when the node plans on
+/// the costmap of `costmap_topic` as it is: that costmap's inflation layer, on its own node, is
+/// what counts there, and a set that is taken and changes nothing would mislead whoever tunes
+/// it. Nav2's planner_server has no inflation parameters of its own for the same reason. The
+/// value the node holds is accepted (ros2-client checks every declared value at start-up).
+pub fn unused_on_costmap(
+    name: &str,
+    value: f64,
+    current: &PlannerConfig,
+    costmap_topic: &str,
+) -> Result<(), String> {
+    match SETTINGS.iter().find(|w| w.name == name) {
+        Some(w) if w.inflation_only && !costmap_topic.is_empty() && value != (w.get)(current) => {
+            Err(format!(
+                "`{name}` shapes the node's own inflation of a map and is not used here: the node \
+                 plans on the costmap of `{costmap_topic}` (costmap_topic) as it is; set the \
+                 inflation layer of that costmap's node instead"
+            ))
+        }
         _ => Ok(()),
     }
 }
@@ -202,5 +243,37 @@ mod tests {
         assert!(
             validate_parameter("costmap.occupied_threshold", &ParameterValue::Integer(50)).is_err()
         );
+    }
+
+    #[test]
+    fn on_a_costmap_topic_the_inflation_settings_are_refused_but_the_rest_are_taken() {
+        let config = PlannerConfig::default();
+        let topic = "/global_costmap/costmap";
+        for w in SETTINGS {
+            let held = (w.get)(&config);
+            // The value held is taken (ros2-client checks it at start-up), as is any value when
+            // the node inflates its map itself.
+            assert!(
+                unused_on_costmap(w.name, held, &config, topic).is_ok(),
+                "{}",
+                w.name
+            );
+            assert!(
+                unused_on_costmap(w.name, held + 0.1, &config, "").is_ok(),
+                "{}",
+                w.name
+            );
+            let other = unused_on_costmap(w.name, held + 0.1, &config, topic);
+            let is_inflation = matches!(
+                w.name,
+                "costmap.safety_margin"
+                    | "costmap.inflation_radius"
+                    | "costmap.cost_scaling_factor"
+            );
+            assert_eq!(other.is_err(), is_inflation, "{}", w.name);
+            if let Err(why) = other {
+                assert!(why.contains(w.name) && why.contains(topic), "{why}");
+            }
+        }
     }
 }
