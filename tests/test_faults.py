@@ -292,12 +292,12 @@ def quaternion_nan(f):
 
 @fault("foreign_frame_goal")
 def foreign_frame_goal(f):
-    return f.expect_goal_code(stamped(*AWAY, frame="odom"), "TF_ERROR")
+    return f.expect_goal_code(stamped(*AWAY, frame="camera_link"), "TF_ERROR")
 
 
 @fault("foreign_frame_get_plan_start")
 def foreign_frame_get_plan_start(f):
-    return f.expect_plan_code(stamped(*HOME, frame="base_link"), AWAY, "TF_ERROR")
+    return f.expect_plan_code(stamped(*HOME, frame="laser"), AWAY, "TF_ERROR")
 
 
 @fault("goal_outside_map")

@@ -127,7 +127,7 @@ def test_04_bad_requests_get_their_codes_and_the_node_keeps_serving(ros):
     refused(ros, (-5.0, -5.0), "GOAL_OUTSIDE_MAP")
     refused(ros, world(5.5, 3.0), "GOAL_OCCUPIED")
     refused(ros, world(10.0, 2.0), "NO_VALID_PATH")
-    refused(ros, world(3.0, 3.0), "TF_ERROR", frame="odom")
+    refused(ros, world(3.0, 3.0), "TF_ERROR", frame="camera_link")
     refused(ros, (float("nan"), 1.0), "INVALID_INPUT")
     refused(ros, (float("inf"), 1.0), "INVALID_INPUT")
     refused(ros, world(3.0, 3.0), "INVALID_INPUT", orientation=(0.0, 0.0, 0.0, 0.0))

@@ -11,11 +11,11 @@ import numpy as np
 from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
 from rclpy.serialization import serialize_message
-from nav_msgs.msg import OccupancyGrid
+from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.srv import GetPlan
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from conftest import call_service, stamped
+from conftest import call_service, initial_pose, stamped
 from test_node import ORIGIN, RES, H, W, assert_collision_free, plan_to, use_test_map, world
 
 MAKE_PLAN = "/patrol_planner/make_plan"
@@ -186,3 +186,50 @@ def test_the_nodes_own_log_lines_reach_rosout(ros):
 
     line = ros.spin_until(warned, 30, "a WARN from patrol_planner on /rosout")
     assert line.file.endswith(".rs") and line.line > 0
+
+
+def test_goals_in_odom_and_base_link_are_carried_into_the_map(ros):
+    """A goal stamped in `odom` goes through the node's map -> odom, one in `base_link` through
+    the robot's pose (as planner_server transforms a goal to its global frame); another frame is
+    TF_ERROR. map -> odom is made non-trivial first: odometry at (2, 0) in odom, then an initial
+    pose at world(1, 1) facing +x, which anchors map -> odom = world(1, 1) - (2, 0)."""
+    use_test_map(ros)
+    odom_pub = ros.node.create_publisher(Odometry, "/odom", 10)
+    try:
+        ros.wait_matched(odom_pub, "/odom")
+        odometry = Odometry()
+        odometry.header.frame_id = "odom"
+        odometry.pose.pose.position.x = 2.0
+        odometry.pose.pose.orientation.w = 1.0
+        target = world(11.5, 7.0)
+
+        def plan_in(frame, x, y):
+            req = GetPlan.Request(goal=stamped(x, y, frame=frame), tolerance=0.0)
+            req.start.header.frame_id = ""  # from the robot's pose
+            return call_service(ros, GetPlan, MAKE_PLAN, req).plan
+
+        def ends_at_target(frame, x, y):
+            plan = plan_in(frame, x, y)
+            if not plan.poses:
+                return False
+            first, last = plan.poses[0].pose.position, plan.poses[-1].pose.position
+            return (math.hypot(first.x - world(1.0, 1.0)[0], first.y - world(1.0, 1.0)[1]) < 1e-6
+                    and math.hypot(last.x - target[0], last.y - target[1]) < 1e-6)
+
+        def anchored():
+            odom_pub.publish(odometry)
+            ros.spin_for(0.2)
+            ros.initial_pub.publish(initial_pose(*world(1.0, 1.0)))
+            ros.spin_for(0.3)
+            # The target in odom: map -> odom is a shift by world(1, 1) - (2, 0).
+            return ends_at_target("odom", target[0] - world(1.0, 1.0)[0] + 2.0, target[1] - world(1.0, 1.0)[1])
+
+        ros.spin_until(anchored, 30, "a goal in odom planned to its place in the map")
+        # The robot is at world(1, 1) facing +x: the target is (10.5, 6) ahead and to the left.
+        assert ends_at_target("base_link", 10.5, 6.0)
+        i = len(ros.diagnostics)
+        assert not plan_in("camera_link", 1.0, 0.0).poses
+        code, why, _ = ros.wait_code(i, "TF_ERROR")
+        assert "`camera_link`" in why, why
+    finally:
+        ros.node.destroy_publisher(odom_pub)

@@ -25,7 +25,8 @@ pub struct NodeParams {
     /// works without a map server. Relative paths are relative to the parameter file. Empty: wait
     /// for `/map`.
     pub map_yaml: String,
-    /// The frame plans are made in; goals must be in it (or have an empty frame).
+    /// The frame plans are made in. Goals may be in it (or have an empty frame), in `odom_frame`
+    /// or in `robot_base_frame`: the node carries those into it (`Shared::pose_in_global`).
     pub global_frame: String,
     /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
     /// default: odometry is the map frame, as for the simulated chassis).
@@ -53,7 +54,8 @@ pub struct NodeParams {
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
     pub enable_stamped_cmd_vel: bool,
-    /// The frame of stamped `/cmd_vel` commands (Nav2's name).
+    /// The robot's frame (Nav2's name): of stamped `/cmd_vel` commands, and of goals given
+    /// relative to the robot.
     pub robot_base_frame: String,
     /// Follower rate (Hz).
     pub control_rate_hz: f64,

@@ -234,9 +234,17 @@ async fn run_goal<G: PlannerGoal>(
         Ok(p) => p,
         Err(reason) => return failed(G::CODE_BASE + 1, reason),
     };
-    let frame = &s.params.global_frame;
+    // Every pose is carried into the global frame once, as the goal arrives: a pose in
+    // `base_link` is relative to where the robot is now, not where it will be after a leg.
+    let mut targets = Vec::with_capacity(goal.poses().len());
+    for pose in goal.poses() {
+        match s.pose_in_global(pose) {
+            Ok(p) => targets.push(p),
+            Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
+        }
+    }
     let mut from = if goal.use_start() {
-        match crate::convert::pose_in_frame(goal.start(), frame) {
+        match s.pose_in_global(goal.start()) {
             Ok(p) => p,
             Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
         }
@@ -254,11 +262,7 @@ async fn run_goal<G: PlannerGoal>(
     let mut waypoints = Vec::new();
     let mut last_outcome: Option<Outcome> = None;
     let mut resolution = f64::INFINITY;
-    for pose in goal.poses() {
-        let to: Pose2 = match crate::convert::pose_in_frame(pose, frame) {
-            Ok(p) => p,
-            Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
-        };
+    for &to in &targets {
         let stops2 = stops.clone();
         let stop = move || {
             stops2.newest.load(Ordering::SeqCst) != number
@@ -303,11 +307,7 @@ async fn run_goal<G: PlannerGoal>(
         }
         last_outcome = Some(outcome);
     }
-    let goal_yaw = goal
-        .poses()
-        .last()
-        .and_then(|p| crate::convert::pose_in_frame(p, frame).ok())
-        .map_or(0.0, |p| p.yaw);
+    let goal_yaw = targets.last().map_or(0.0, |p| p.yaw);
     let goal_yaw = crate::outputs::final_yaw(
         s.params.use_final_approach_orientation,
         &waypoints,

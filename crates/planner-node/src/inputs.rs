@@ -293,7 +293,7 @@ pub async fn receive_goals(
         let Ok((msg, _)) = sub.async_take().await else {
             continue;
         };
-        match convert::pose_in_frame(&msg, &s.params.global_frame) {
+        match s.pose_in_global(&msg) {
             Ok(goal) => {
                 let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
                 // Fails only when the planning task has ended, i.e. during shutdown.

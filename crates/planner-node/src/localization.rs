@@ -94,10 +94,89 @@ impl Localization {
     }
 }
 
+/// `a` then `b`: the pose `b`, given in the frame whose pose is `a`, in `a`'s parent frame.
+pub fn compose(a: Pose2, b: Pose2) -> Pose2 {
+    pose(&(iso(a) * iso(b)))
+}
+
+/// The frames a goal or start may be stamped in, and the node's own transform of each to the
+/// global frame. Without a TF library the node knows exactly two, the two it keeps anyway:
+/// `global -> odom` (its `map -> odom` estimate above) and `global -> robot_base_frame` (the
+/// robot's current pose). Those cover what a Nav2 user sends: RViz's "2D Goal Pose" in its fixed
+/// frame (`map`, or `odom` when there is no map localization), and a script's "two metres ahead"
+/// in `base_link`. As planner_server's `transformPoseToGlobalFrame` with the latest transform.
+pub struct KnownFrames<'a> {
+    pub global: &'a str,
+    pub odom: &'a str,
+    pub map_to_odom: Pose2,
+    pub base: &'a str,
+    /// The robot's pose in the global frame, once one has arrived.
+    pub robot: Option<Pose2>,
+}
+
+impl KnownFrames<'_> {
+    /// The pose of `frame` in the global frame, or why the node has none. An empty frame is the
+    /// global frame, as Nav2 reads it.
+    pub fn in_global(&self, frame: &str) -> Result<Pose2, String> {
+        if frame.is_empty() || frame == self.global {
+            Ok(Pose2::new(0.0, 0.0, 0.0))
+        } else if frame == self.odom {
+            Ok(self.map_to_odom)
+        } else if frame == self.base {
+            self.robot.ok_or_else(|| {
+                format!(
+                    "pose is in `{frame}` and the robot has no pose in `{}` yet: publish \
+                     /initialpose, /amcl_pose or /odom",
+                    self.global
+                )
+            })
+        } else {
+            Err(format!(
+                "pose is in frame `{frame}`; this node plans in `{}` and has transforms only from \
+                 `{}` and `{}`",
+                self.global, self.odom, self.base
+            ))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::f64::consts::FRAC_PI_2;
+
+    #[test]
+    fn a_pose_in_odom_or_base_link_is_carried_into_the_map() {
+        let frames = KnownFrames {
+            global: "map",
+            odom: "odom",
+            map_to_odom: Pose2::new(1.0, 2.0, FRAC_PI_2),
+            base: "base_link",
+            robot: Some(Pose2::new(5.0, 5.0, -FRAC_PI_2)),
+        };
+        let ahead = Pose2::new(2.0, 0.0, 0.0);
+        let at = |frame| compose(frames.in_global(frame).unwrap(), ahead);
+        assert!(close(at("map"), ahead));
+        assert!(close(at(""), ahead));
+        // odom's x axis is the map's +y: 2 m along it from (1, 2), facing +y.
+        assert!(close(at("odom"), Pose2::new(1.0, 4.0, FRAC_PI_2)));
+        // The robot faces -y: two metres ahead of it is (5, 3).
+        assert!(close(at("base_link"), Pose2::new(5.0, 3.0, -FRAC_PI_2)));
+        let unknown = frames.in_global("camera").unwrap_err();
+        assert!(
+            unknown.contains("`camera`") && unknown.contains("`odom`"),
+            "{unknown}"
+        );
+        let nowhere = KnownFrames {
+            robot: None,
+            ..frames
+        };
+        assert!(nowhere
+            .in_global("base_link")
+            .unwrap_err()
+            .contains("no pose"));
+        assert!(nowhere.in_global("odom").is_ok());
+    }
 
     fn close(a: Pose2, b: Pose2) -> bool {
         (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12 && (a.yaw - b.yaw).abs() < 1e-12

@@ -204,11 +204,10 @@ where
     F: Fn(u32) -> Fut,
     Fut: std::future::Future<Output = ()>,
 {
-    let frame = s.params.global_frame.clone();
     let mut result = FollowWaypointsResult::default();
     let mut poses = Vec::with_capacity(goal.poses.len());
     for (i, p) in goal.poses.iter().enumerate() {
-        match crate::convert::pose_in_frame(p, &frame) {
+        match s.pose_in_global(p) {
             Ok(pose) => poses.push(pose),
             Err(f) => {
                 result.error_code = 600;

@@ -2,7 +2,6 @@
 //! with the current settings, run on tokio's blocking pool so the node keeps receiving meanwhile.
 //! A newer goal or `max_planning_time` interrupts a running plan.
 
-use crate::convert;
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalSlot, MapState, Shared};
@@ -161,7 +160,7 @@ pub async fn install_map(
 pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
     let planner = s.live.read().expect("lock").planner;
     let failed = |f: Failure| Outcome::failed(planner, 0, f);
-    let goal = match convert::pose_in_frame(&req.goal, &s.params.global_frame) {
+    let goal = match s.pose_in_global(&req.goal) {
         Ok(g) => g,
         Err(f) => return failed(f),
     };
@@ -176,7 +175,7 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
             }
         }
     } else {
-        match convert::pose_in_frame(&req.start, &s.params.global_frame) {
+        match s.pose_in_global(&req.start) {
             Ok(p) => p,
             Err(f) => return failed(f),
         }

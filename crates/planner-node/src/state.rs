@@ -2,8 +2,10 @@
 //! current map with its planning grid, the latest poses, the goal counter and the plan being
 //! followed. Locks are held only to copy a value in or out, never across an await or a plan.
 
-use crate::localization::Localization;
+use crate::localization::{compose, KnownFrames, Localization};
+use crate::result::{Failure, ResultCode};
 use chassis::follower::Follower;
+use patrol_msgs::geometry_msgs::PoseStamped;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::Pose2;
 use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
@@ -212,6 +214,23 @@ impl Shared {
     }
 
     /// Why the node cannot plan now, if it cannot: it is not active.
+    /// A goal or start stamped in a frame the node knows (`localization::KnownFrames`: the
+    /// global frame, `odom_frame`, `robot_base_frame`) as a pose in the global frame, through
+    /// the latest transform; TF_ERROR, with the reason, for any other frame.
+    pub fn pose_in_global(&self, msg: &PoseStamped) -> Result<Pose2, Failure> {
+        let frames = KnownFrames {
+            global: &self.params.global_frame,
+            odom: &self.params.odom_frame,
+            map_to_odom: self.localization.lock().expect("lock").map_to_odom(),
+            base: &self.params.robot_base_frame,
+            robot: self.start.read().expect("lock").map(|(p, _)| p),
+        };
+        let origin = frames
+            .in_global(crate::convert::frame_name(&msg.header.frame_id))
+            .map_err(|why| Failure::new(ResultCode::TfError, why))?;
+        Ok(compose(origin, crate::convert::pose2(&msg.pose)?))
+    }
+
     pub fn refusal(&self) -> Option<crate::result::Failure> {
         let state = *self.lifecycle.read().expect("lock");
         (state != crate::lifecycle::State::Active).then(|| {
