@@ -376,7 +376,33 @@ pub mod nav2_msgs {
     pub struct FollowWaypointsFeedback {
         pub current_waypoint: u32,
     }
+    /// nav2_msgs/action/NavigateToPose goal
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct NavigateToPoseGoal {
+        pub pose: PoseStamped,
+        /// bt_navigator's behavior tree file; this node has none and ignores it.
+        pub behavior_tree: String,
+    }
+    /// nav2_msgs/action/NavigateToPose result (Jazzy: NONE is its only constant; a failure
+    /// carries the code of the server that failed, as bt_navigator reports it)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct NavigateToPoseResult {
+        pub error_code: u16,
+        pub error_msg: String,
+    }
+    /// nav2_msgs/action/NavigateToPose feedback
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct NavigateToPoseFeedback {
+        pub current_pose: PoseStamped,
+        pub navigation_time: Duration,
+        pub estimated_time_remaining: Duration,
+        pub number_of_recoveries: i16,
+        pub distance_remaining: f32,
+    }
     messages!(
+        NavigateToPoseGoal,
+        NavigateToPoseResult,
+        NavigateToPoseFeedback,
         FollowWaypointsGoal,
         FollowWaypointsResult,
         FollowWaypointsFeedback,

@@ -449,4 +449,37 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::FOLLOW_WAYPOINTS_FEEDBACK,
     );
+    check(
+        "NavigateToPose goal",
+        NavigateToPoseGoal {
+            pose: stamped(3.0, 4.0),
+            behavior_tree: String::new(),
+        },
+        g::NAVIGATE_TO_POSE_GOAL,
+    );
+    check(
+        "NavigateToPose result",
+        NavigateToPoseResult {
+            error_code: 208,
+            error_msg: "no valid path".into(),
+        },
+        g::NAVIGATE_TO_POSE_RESULT,
+    );
+    check(
+        "NavigateToPose feedback",
+        NavigateToPoseFeedback {
+            current_pose: stamped(1.0, 2.0),
+            navigation_time: Duration {
+                sec: 3,
+                nanosec: 250,
+            },
+            estimated_time_remaining: Duration {
+                sec: 7,
+                nanosec: 500,
+            },
+            number_of_recoveries: 0,
+            distance_remaining: 4.5,
+        },
+        g::NAVIGATE_TO_POSE_FEEDBACK,
+    );
 }

@@ -14,7 +14,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose, FollowWaypoints
+from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose, FollowWaypoints, NavigateToPose
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import IsPathValid
 
@@ -112,6 +112,12 @@ def messages():
         missed_waypoints=[MissedWaypoint(index=1, goal=pose_stamped(3.0, 4.0), error_code=206)],
         error_code=0, error_msg="")
     out["FOLLOW_WAYPOINTS_FEEDBACK"] = FollowWaypoints.Feedback(current_waypoint=3)
+    out["NAVIGATE_TO_POSE_GOAL"] = NavigateToPose.Goal(pose=pose_stamped(3.0, 4.0), behavior_tree="")
+    out["NAVIGATE_TO_POSE_RESULT"] = NavigateToPose.Result(error_code=208, error_msg="no valid path")
+    f = NavigateToPose.Feedback(current_pose=pose_stamped(1.0, 2.0), number_of_recoveries=0, distance_remaining=4.5)
+    f.navigation_time.sec, f.navigation_time.nanosec = 3, 250
+    f.estimated_time_remaining.sec, f.estimated_time_remaining.nanosec = 7, 500
+    out["NAVIGATE_TO_POSE_FEEDBACK"] = f
     return out
 
 

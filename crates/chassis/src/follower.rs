@@ -81,6 +81,20 @@ impl Follower {
         })
     }
 
+    /// The length of the path still to drive from `pose`: to the path point nearest it (from
+    /// the last progress on), then along the path to its end, as Nav2's navigators report
+    /// `distance_remaining`.
+    pub fn remaining(&self, pose: &Pose) -> f64 {
+        let dist = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
+        let here = (pose.x, pose.y);
+        let ahead = &self.path[self.nearest..];
+        let nearest = (0..ahead.len())
+            .min_by(|&a, &b| dist(ahead[a], here).total_cmp(&dist(ahead[b], here)))
+            .unwrap_or(0);
+        let along: f64 = ahead[nearest..].windows(2).map(|w| dist(w[0], w[1])).sum();
+        dist(here, ahead[nearest]) + along
+    }
+
     /// The command for the robot at `pose` under `limits` (speed limits only: the caller applies
     /// acceleration limits with [`TwistLimits::apply`]).
     pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
@@ -142,6 +156,22 @@ mod tests {
     use super::*;
     use crate::sim::Unicycle;
     use proptest::prelude::*;
+
+    #[test]
+    fn remaining_is_the_way_left_along_the_path() {
+        // An L: 4 m along x, then 3 m up y.
+        let f = Follower::new(
+            FollowerParams::default(),
+            dense(&[(0.0, 0.0), (4.0, 0.0), (4.0, 3.0)]),
+            0.0,
+        )
+        .unwrap();
+        let at = |x, y| f.remaining(&Pose { x, y, yaw: 0.0 });
+        assert!((at(0.0, 0.0) - 7.0).abs() < 1e-9);
+        // Half a metre off the path at x = 1: back onto it, then 3 + 3 m.
+        assert!((at(1.0, 0.5) - 6.5).abs() < 1e-9, "{}", at(1.0, 0.5));
+        assert!((at(4.0, 3.0)).abs() < 1e-9);
+    }
 
     /// Densifies a polyline to 0.05 m, as the planner's /plan is.
     fn dense(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {

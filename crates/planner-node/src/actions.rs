@@ -5,12 +5,12 @@
 //! running one, which is aborted). Each answer also goes out on `/plan` and `/diagnostics`, as a
 //! goal on `/goal_pose` does; the actions plan only, they do not drive.
 
+use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::Shared;
 use log::{info, warn};
-use patrol_msgs::builtin_interfaces::Duration;
 use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav2_msgs::{
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
@@ -18,11 +18,8 @@ use patrol_msgs::nav2_msgs::{
 use patrol_msgs::nav_msgs::Path;
 use planner_core::geometry::Pose2;
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
-use ros2_client::action_msgs::GoalId;
 use ros2_client::Message;
-use std::collections::BTreeSet;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// What the two planner actions' goals have in common.
 pub trait PlannerGoal: Message + Clone + Send + Sync + 'static {
@@ -99,110 +96,18 @@ pub fn nav2_code(code: ResultCode, base: u16) -> u16 {
     base + offset
 }
 
-/// The goals asked to stop (cancelled by a client, or preempted by a newer goal).
-#[derive(Default)]
-struct Stops {
-    cancelled: Mutex<BTreeSet<GoalId>>,
-    /// The newest goal's number: an older running goal sees it change and stops.
-    newest: AtomicU64,
-}
-
-/// Serves one planner action until the node stops.
+/// Serves one planner action until the node stops (the door: action_server.rs).
 pub async fn serve<G: PlannerGoal>(
     s: Arc<Shared>,
     o: Outputs,
     server: AsyncActionServer<G, ComputePathResult, EmptyFeedback>,
 ) {
-    let server = Arc::new(server);
-    let stops = Arc::new(Stops::default());
-    // Goals and cancels side by side; both end when the node's task set is shut down.
-    tokio::join!(
-        serve_goals(s, o, server.clone(), stops.clone()),
-        serve_cancels(server, stops)
-    );
-}
-
-/// Accepts each new goal (rejects it while the node is not active), preempting the running one,
-/// and plans it on a task of its own.
-async fn serve_goals<G: PlannerGoal>(
-    s: Arc<Shared>,
-    o: Outputs,
-    server: Arc<AsyncActionServer<G, ComputePathResult, EmptyFeedback>>,
-    stops: Arc<Stops>,
-) {
-    loop {
-        let handle = match server.receive_new_goal().await {
-            Ok(h) => h,
-            Err(e) => {
-                warn!("{}: {e:?}", G::NAME);
-                continue;
-            }
-        };
-        let Some(goal) = server.get_new_goal(handle.clone()) else {
-            continue;
-        };
-        // Inactive (lifecycle): refused at the door, as Nav2's deactivated action servers do.
-        if let Some(refusal) = s.refusal() {
-            info!("{}: goal rejected: {}", G::NAME, refusal.message);
-            if let Err(e) = server.reject_goal(handle).await {
-                warn!("{}: reject: {e:?}", G::NAME);
-            }
-            continue;
-        }
-        let number = stops.newest.fetch_add(1, Ordering::SeqCst) + 1;
-        let accepted = match server.accept_goal(handle).await {
-            Ok(a) => a,
-            Err(e) => {
-                warn!("{}: accept: {e:?}", G::NAME);
-                continue;
-            }
-        };
-        let executing = match server.start_executing_goal(accepted).await {
-            Ok(x) => x,
-            Err(e) => {
-                warn!("{}: execute: {e:?}", G::NAME);
-                continue;
-            }
-        };
-        let (s, o, server, stops) = (s.clone(), o.clone(), server.clone(), stops.clone());
-        tokio::spawn(async move {
-            let id = executing.goal_id();
-            let (status, result) = run_goal(&s, &o, &goal, id, number, &stops).await;
-            stops.cancelled.lock().expect("lock").remove(&id);
-            if let Err(e) = server.send_result_response(executing, status, result).await {
-                warn!("{}: result: {e:?}", G::NAME);
-            }
-        });
-    }
-}
-
-/// Accepts every cancel request for a goal still running; the goal's planning notices and ends
-/// it as canceled.
-async fn serve_cancels<G: PlannerGoal>(
-    server: Arc<AsyncActionServer<G, ComputePathResult, EmptyFeedback>>,
-    stops: Arc<Stops>,
-) {
-    loop {
-        let handle = match server.receive_cancel_request().await {
-            Ok(h) => h,
-            Err(e) => {
-                warn!("{} cancel: {e:?}", G::NAME);
-                continue;
-            }
-        };
-        let goals: Vec<GoalId> = handle.goals().collect();
-        stops
-            .cancelled
-            .lock()
-            .expect("lock")
-            .extend(goals.iter().copied());
-        if let Err(e) = server
-            .respond_to_cancel_requests(&handle, goals.into_iter())
-            .await
-        {
-            warn!("{} cancel response: {e:?}", G::NAME);
-        }
-    }
+    let shared = s.clone();
+    crate::action_server::serve(s, G::NAME, server, move |goal: G, stop, _feedback| {
+        let (s, o) = (shared.clone(), o.clone());
+        async move { run_goal(&s, &o, &goal, &stop).await }
+    })
+    .await
 }
 
 /// Plans every leg of one goal and builds its result.
@@ -210,9 +115,7 @@ async fn run_goal<G: PlannerGoal>(
     s: &Arc<Shared>,
     o: &Outputs,
     goal: &G,
-    id: GoalId,
-    number: u64,
-    stops: &Arc<Stops>,
+    stop: &GoalStop,
 ) -> (GoalEndStatus, ComputePathResult) {
     let t0 = std::time::Instant::now();
     let failed = |code: u16, message: String| {
@@ -222,7 +125,7 @@ async fn run_goal<G: PlannerGoal>(
             ComputePathResult {
                 error_code: code,
                 error_msg: message,
-                planning_time: duration(t0.elapsed()),
+                planning_time: crate::convert::duration_msg(t0.elapsed()),
                 ..ComputePathResult::default()
             },
         )
@@ -263,12 +166,11 @@ async fn run_goal<G: PlannerGoal>(
     let mut last_outcome: Option<Outcome> = None;
     let mut resolution = f64::INFINITY;
     for &to in &targets {
-        let stops2 = stops.clone();
-        let stop = move || {
-            stops2.newest.load(Ordering::SeqCst) != number
-                || stops2.cancelled.lock().expect("lock").contains(&id)
-        };
-        let outcome = planning::plan_off_thread(s, from, to, tolerance, planner, stop).await;
+        let stop_leg = stop.clone();
+        let outcome = planning::plan_off_thread(s, from, to, tolerance, planner, move || {
+            stop_leg.requested()
+        })
+        .await;
         o.diagnose(s, &outcome).await;
         match &outcome.result {
             Ok((plan, _)) => {
@@ -279,24 +181,20 @@ async fn run_goal<G: PlannerGoal>(
                 from = Pose2::new(plan.goal.x, plan.goal.y, to.yaw);
             }
             Err(f) if f.code == ResultCode::Cancelled => {
-                let preempted = stops.newest.load(Ordering::SeqCst) != number;
+                let preempted = stop.preempted();
                 let why = if preempted {
                     "preempted by a newer goal"
                 } else {
                     "canceled"
                 };
                 info!("{}: {why}", G::NAME);
-                let status = if preempted {
-                    GoalEndStatus::Aborted
-                } else {
-                    GoalEndStatus::Canceled
-                };
+                let status = stop.end_status();
                 return (
                     status,
                     ComputePathResult {
                         error_code: if preempted { G::CODE_BASE } else { 0 },
                         error_msg: why.into(),
-                        planning_time: duration(t0.elapsed()),
+                        planning_time: crate::convert::duration_msg(t0.elapsed()),
                         ..ComputePathResult::default()
                     },
                 );
@@ -322,18 +220,11 @@ async fn run_goal<G: PlannerGoal>(
         GoalEndStatus::Succeeded,
         ComputePathResult {
             path,
-            planning_time: duration(t0.elapsed()),
+            planning_time: crate::convert::duration_msg(t0.elapsed()),
             error_code: 0,
             error_msg: String::new(),
         },
     )
-}
-
-fn duration(d: std::time::Duration) -> Duration {
-    Duration {
-        sec: d.as_secs() as i32,
-        nanosec: d.subsec_nanos(),
-    }
 }
 
 /// The indices of the poses of `path` (map frame, metres) the robot cannot be at or reach from

@@ -3,7 +3,7 @@
 //! the Nav2 result code names that `/diagnostics` reports.
 
 use crate::result::{Failure, ResultCode};
-use patrol_msgs::builtin_interfaces::Time;
+use patrol_msgs::builtin_interfaces::{Duration, Time};
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Vector3};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
@@ -211,20 +211,33 @@ pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Heade
                 Some(n) if i + 1 < points.len() => (n.y - p.y).atan2(n.x - p.x),
                 _ => goal_yaw,
             };
-            PoseStamped {
-                header: header.clone(),
-                pose: Pose {
-                    position: Point {
-                        x: p.x,
-                        y: p.y,
-                        z: 0.0,
-                    },
-                    orientation: quaternion_from_yaw(yaw),
-                },
-            }
+            pose_stamped(Pose2::new(p.x, p.y, yaw), header.clone())
         })
         .collect();
     Path { header, poses }
+}
+
+/// A planar pose as geometry_msgs/PoseStamped.
+pub fn pose_stamped(p: Pose2, header: Header) -> PoseStamped {
+    PoseStamped {
+        header,
+        pose: Pose {
+            position: Point {
+                x: p.x,
+                y: p.y,
+                z: 0.0,
+            },
+            orientation: quaternion_from_yaw(p.yaw),
+        },
+    }
+}
+
+/// A duration as builtin_interfaces/Duration.
+pub fn duration_msg(d: std::time::Duration) -> Duration {
+    Duration {
+        sec: i32::try_from(d.as_secs()).unwrap_or(i32::MAX),
+        nanosec: d.subsec_nanos(),
+    }
 }
 
 /// The most poses (about) a published path holds: a 5 km patrol at 5 cm spacing. A longer or

@@ -5,13 +5,16 @@
 //! it). Default: `config/planner.yaml` if it exists, else built-in defaults. Log level from
 //! `RUST_LOG` (default info).
 
+mod action_server;
 mod actions;
 mod convert;
+mod drive;
 mod follow;
 mod inputs;
 mod lifecycle;
 mod lifecycle_services;
 mod localization;
+mod navigate;
 mod node;
 mod outputs;
 mod params;

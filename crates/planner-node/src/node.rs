@@ -44,7 +44,7 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
     FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
-    IsPathValidResponse,
+    IsPathValidResponse, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -293,6 +293,16 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             action_qos(),
         )?,
     );
+    let navigate_to_pose = AsyncActionServer::new(node.create_action_server::<
+        NavigateToPoseGoal,
+        NavigateToPoseResult,
+        NavigateToPoseFeedback,
+    >(
+        ServiceMapping::Enhanced,
+        &naming.name("navigate_to_pose")?,
+        &ActionTypeName::new("nav2_msgs", "NavigateToPose"),
+        action_qos(),
+    )?);
     let follow_waypoints = AsyncActionServer::new(node.create_action_server::<
         FollowWaypointsGoal,
         FollowWaypointsResult,
@@ -511,6 +521,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         shared.clone(),
         out.clone(),
         follow_waypoints,
+    ));
+    tasks.spawn(crate::navigate::serve(
+        shared.clone(),
+        out.clone(),
+        navigate_to_pose,
     ));
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),

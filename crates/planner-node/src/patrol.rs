@@ -9,11 +9,11 @@
 //! with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
 //! acceleration limits.
 
+use crate::action_server::{Feedback, GoalStop};
 use crate::actions::nav2_code;
+use crate::drive::{drive_to, DriveEnd};
 use crate::outputs::Outputs;
-use crate::planning;
 use crate::state::Shared;
-use chassis::follower::Follower;
 use log::{info, warn};
 use patrol_msgs::nav2_msgs::{
     FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, MissedWaypoint,
@@ -22,9 +22,7 @@ use planner_core::geometry::Pose2;
 use planner_core::route::file::{RouteFile, RoutePoint, RoutePose};
 use planner_core::route::{plan_route, RouteOptions};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
-use ros2_client::action_msgs::GoalId;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// FollowWaypoints' TASK_EXECUTOR_FAILED: the code of a waypoint not reached in time.
@@ -33,90 +31,20 @@ const NOT_REACHED: u16 = 601;
 pub type Server =
     AsyncActionServer<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>;
 
-/// Serves `follow_waypoints` until the node stops; a newer patrol preempts the running one.
+/// Serves `follow_waypoints` until the node stops; a newer patrol preempts the running one
+/// (the door: action_server.rs).
 pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
-    let server = Arc::new(server);
-    let newest = Arc::new(AtomicU64::new(0));
-    // The goals a client has cancelled: each patrol stops on its own id, so that a late cancel of
-    // a preempted patrol cannot stop the one that replaced it.
-    let canceled: Arc<Mutex<Vec<GoalId>>> = Arc::default();
-    let cancels = {
-        let (server, canceled) = (server.clone(), canceled.clone());
-        async move {
-            loop {
-                let Ok(handle) = server.receive_cancel_request().await else {
-                    continue;
-                };
-                let goals: Vec<_> = handle.goals().collect();
-                canceled.lock().expect("lock").extend(goals.iter().copied());
-                if let Err(e) = server
-                    .respond_to_cancel_requests(&handle, goals.into_iter())
-                    .await
-                {
-                    warn!("follow_waypoints cancel: {e:?}");
-                }
-            }
-        }
-    };
-    let goals = async move {
-        loop {
-            let Ok(handle) = server.receive_new_goal().await else {
-                continue;
-            };
-            let Some(goal) = server.get_new_goal(handle.clone()) else {
-                continue;
-            };
-            if let Some(refusal) = s.refusal() {
-                info!("follow_waypoints: goal rejected: {}", refusal.message);
-                let _ = server.reject_goal(handle).await;
-                continue;
-            }
-            let number = newest.fetch_add(1, Ordering::SeqCst) + 1;
-            // Older patrols stop as preempted; their cancels no longer matter.
-            canceled.lock().expect("lock").clear();
-            let Ok(accepted) = server.accept_goal(handle).await else {
-                continue;
-            };
-            let Ok(executing) = server.start_executing_goal(accepted).await else {
-                continue;
-            };
-            let (s, o, server, newest, canceled) = (
-                s.clone(),
-                o.clone(),
-                server.clone(),
-                newest.clone(),
-                canceled.clone(),
-            );
-            let id = executing.goal_id();
-            tokio::spawn(async move {
-                let stop: Stop = Arc::new(move || {
-                    newest.load(Ordering::SeqCst) != number
-                        || canceled.lock().expect("lock").contains(&id)
-                });
-                let feedback = |i: u32| {
-                    let (server, executing) = (server.clone(), executing.clone());
-                    async move {
-                        let _ = server
-                            .publish_feedback(
-                                executing,
-                                FollowWaypointsFeedback {
-                                    current_waypoint: i,
-                                },
-                            )
-                            .await;
-                    }
-                };
-                let (status, result) = patrol(&s, &o, &goal, stop, feedback).await;
-                if let Err(e) = server
-                    .send_result_response(executing.clone(), status, result)
-                    .await
-                {
-                    warn!("follow_waypoints result: {e:?}");
-                }
-            });
-        }
-    };
-    tokio::join!(goals, cancels);
+    let shared = s.clone();
+    crate::action_server::serve(
+        s,
+        "follow_waypoints",
+        server,
+        move |goal, stop, feedback| {
+            let (s, o) = (shared.clone(), o.clone());
+            async move { patrol(&s, &o, &goal, &stop, &feedback).await }
+        },
+    )
+    .await
 }
 
 /// The order to visit `poses` in from `robot`: the route planner's over the current map, or the
@@ -175,9 +103,6 @@ fn visiting_order(s: &Shared, robot: Pose2, poses: &[Pose2]) -> Vec<usize> {
     }
 }
 
-/// Whether a patrol is to stop (cancelled or preempted); shared with each leg's planning.
-type Stop = Arc<dyn Fn() -> bool + Send + Sync>;
-
 /// The waypoints of pass `pass` (0 the first) in visiting order, as Nav2's waypoint follower
 /// runs them: the first pass leaves out the waypoints whose index in the request is below
 /// `goal_index` (in the given order, those before it; reordered, wherever the order puts them),
@@ -193,17 +118,13 @@ fn pass_order(order: &[usize], goal_index: usize, pass: u32) -> Vec<usize> {
 }
 
 /// One patrol: every pass, every waypoint in order.
-async fn patrol<F, Fut>(
+async fn patrol(
     s: &Arc<Shared>,
     o: &Outputs,
     goal: &FollowWaypointsGoal,
-    stop: Stop,
-    feedback: F,
-) -> (GoalEndStatus, FollowWaypointsResult)
-where
-    F: Fn(u32) -> Fut,
-    Fut: std::future::Future<Output = ()>,
-{
+    stop: &GoalStop,
+    feedback: &Feedback<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>,
+) -> (GoalEndStatus, FollowWaypointsResult) {
     let mut result = FollowWaypointsResult::default();
     let mut poses = Vec::with_capacity(goal.poses.len());
     for (i, p) in goal.poses.iter().enumerate() {
@@ -251,99 +172,55 @@ where
             .await
             .unwrap_or_else(|_| (0..poses.len()).collect())
     };
-    let tolerance = s.live.read().expect("lock").tolerance;
     let stop_on_failure = s.params.stop_on_failure;
     for pass in 0..=goal.number_of_loops {
         for i in pass_order(&order, goal.goal_index as usize, pass) {
-            if stop() {
-                brake(s);
-                return (GoalEndStatus::Canceled, result);
+            if stop.requested() {
+                return (stop.end_status(), result);
             }
-            feedback(i as u32).await;
+            feedback
+                .send(FollowWaypointsFeedback {
+                    current_waypoint: i as u32,
+                })
+                .await;
             let missed = |code: u16| MissedWaypoint {
                 index: i as u32,
                 goal: goal.poses[i].clone(),
                 error_code: code,
             };
-            let from = s.start.read().expect("lock").map_or(robot, |(p, _)| p);
-            let stop_leg = {
-                // The leg's plan stops with the patrol, and for a newer goal of another kind.
-                let (s2, stop) = (s.clone(), stop.clone());
-                let started = s2.goals.load(Ordering::SeqCst);
-                move || stop() || s2.goals.load(Ordering::SeqCst) != started
-            };
-            let outcome =
-                planning::plan_off_thread(s, from, poses[i], tolerance, None, stop_leg).await;
-            let path = o.publish(s, &outcome).await;
-            let Some(path) = path else {
-                let code = outcome
-                    .result
-                    .as_ref()
-                    .err()
-                    .map_or(0, |f| nav2_code(f.code, 200));
-                if stop() {
-                    brake(s);
-                    return (GoalEndStatus::Canceled, result);
+            match drive_to(s, o, poses[i], stop, |_| async {}).await {
+                DriveEnd::Reached => {}
+                DriveEnd::Stopped => return (stop.end_status(), result),
+                DriveEnd::Superseded => {
+                    result.error_code = 600;
+                    result.error_msg = format!(
+                        "preempted at waypoint {i} by a newer goal on /goal_pose or another action"
+                    );
+                    return (GoalEndStatus::Aborted, result);
                 }
-                warn!("follow_waypoints: pass {pass}, waypoint {i} missed: cannot plan to it");
-                result.missed_waypoints.push(missed(code));
-                if stop_on_failure {
-                    return failed(result, i);
+                DriveEnd::NoPlan(f) => {
+                    warn!("follow_waypoints: pass {pass}, waypoint {i} missed: cannot plan to it");
+                    result.missed_waypoints.push(missed(nav2_code(f.code, 200)));
+                    if stop_on_failure {
+                        return failed(result, i);
+                    }
+                    continue;
                 }
-                continue;
-            };
-            let points: Vec<(f64, f64)> = path
-                .poses
-                .iter()
-                .map(|q| (q.pose.position.x, q.pose.position.y))
-                .collect();
-            let length: f64 = points
-                .windows(2)
-                .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
-                .sum();
-            let last = points.last().copied();
-            *s.followed.lock().expect("lock") = Some((poses[i], points.clone()));
-            *s.follower.lock().expect("lock") =
-                Follower::new(s.params.follower, points, poses[i].yaw);
-            // Time to drive it at a third of the speed limit, plus turning on the spot.
-            let limit = Duration::from_secs_f64(
-                20.0 + 3.0 * length / s.params.twist_limits.max_linear.max(0.05),
-            );
-            let started = Instant::now();
-            loop {
-                tokio::time::sleep(Duration::from_millis(100)).await;
-                if stop() {
-                    brake(s);
-                    return (GoalEndStatus::Canceled, result);
+                DriveEnd::NotReached => {
+                    warn!("follow_waypoints: pass {pass}, waypoint {i} not reached");
+                    result.missed_waypoints.push(missed(NOT_REACHED));
+                    if stop_on_failure {
+                        return failed(result, i);
+                    }
+                    continue;
                 }
-                if s.follower.lock().expect("lock").is_none() {
-                    break;
-                }
-                if started.elapsed() > limit {
-                    brake(s);
-                    break;
-                }
-            }
-            // Reached where the plan ended: the waypoint, or the free cell it was moved to.
-            let target = last.unwrap_or((poses[i].x, poses[i].y));
-            let at = s.odom.read().expect("lock").map(|(p, _)| p);
-            let reached = at.is_some_and(|p| {
-                (p.x - target.0).hypot(p.y - target.1) <= 2.0 * s.params.follower.goal_tolerance
-            });
-            if !reached {
-                warn!("follow_waypoints: pass {pass}, waypoint {i} not reached");
-                result.missed_waypoints.push(missed(NOT_REACHED));
-                if stop_on_failure {
-                    return failed(result, i);
-                }
-                continue;
             }
             info!("follow_waypoints: pass {pass}, waypoint {i} reached");
             let pause = Duration::from_secs_f64(s.params.waypoint_pause_duration);
             let paused = Instant::now();
             while paused.elapsed() < pause {
-                if stop() {
-                    return (GoalEndStatus::Canceled, result);
+                if stop.requested() {
+                    return (stop.end_status(), result);
                 }
                 tokio::time::sleep(Duration::from_millis(100).min(pause)).await;
             }
@@ -359,12 +236,6 @@ fn failed(mut result: FollowWaypointsResult, i: usize) -> (GoalEndStatus, Follow
     result.error_code = 600;
     result.error_msg = format!("waypoint {i} missed and stop_on_failure is set");
     (GoalEndStatus::Aborted, result)
-}
-
-/// Ends the drive: the follower loop brakes within the acceleration limits to a stop.
-fn brake(s: &Shared) {
-    *s.follower.lock().expect("lock") = None;
-    *s.followed.lock().expect("lock") = None;
 }
 
 #[cfg(test)]

@@ -264,7 +264,8 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
             continue;
         }
         let path = o.publish(&s, &outcome).await;
-        if s.params.follow_plan {
+        // A drive of an action may have taken the robot while this was planned.
+        if s.params.follow_plan && s.goals.load(Ordering::SeqCst) == id {
             // A new plan replaces the one being followed; a failed goal stops the robot (the
             // follower loop brakes it within the acceleration limits).
             let pts: Option<Vec<(f64, f64)>> = path.map(|p| {

@@ -107,7 +107,8 @@ pub struct Shared {
     pub checked_grid: Mutex<Weak<MapState>>,
     /// The latest start pose (map frame) and when it arrived.
     pub start: RwLock<Option<(Pose2, Instant)>>,
-    /// Counts goals: a running goal plan stops when it moves on.
+    /// Counts the goals that take the robot (each `/goal_pose`, each drive of an action,
+    /// drive.rs): a plan or drive for an older one stops when it moves on.
     pub goals: AtomicU64,
     /// `map -> odom` and the recent odometry (see localization.rs).
     pub localization: Mutex<Localization>,

@@ -1,0 +1,227 @@
+//! The door every action of the node goes through, as Nav2's `SimpleActionServer` is for its
+//! servers: a goal is rejected while the node is not active (lifecycle), otherwise accepted and
+//! run on a task of its own; a newer goal preempts the running one (which ends aborted, as
+//! Nav2's does), and a client's cancel is accepted and noticed by the run, which ends canceled.
+//! What a goal does (plan, patrol, drive) is the run's business: it gets the goal, a
+//! [`GoalStop`] to poll, and a [`Feedback`] sender.
+
+use crate::state::Shared;
+use log::{info, warn};
+use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
+use ros2_client::action_msgs::GoalId;
+use ros2_client::Message;
+use std::collections::BTreeSet;
+use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The goals of one action asked to stop.
+#[derive(Default)]
+struct Stops {
+    /// Cancelled by a client and still running.
+    cancelled: Mutex<BTreeSet<GoalId>>,
+    /// The newest goal's number: an older running goal sees it change and stops.
+    newest: AtomicU64,
+}
+
+/// Whether one goal is to stop, and why.
+#[derive(Clone)]
+pub struct GoalStop {
+    stops: Arc<Stops>,
+    number: u64,
+    id: GoalId,
+}
+
+impl GoalStop {
+    /// A newer goal of the same action has arrived.
+    pub fn preempted(&self) -> bool {
+        self.stops.newest.load(Ordering::SeqCst) != self.number
+    }
+
+    /// Preempted, or cancelled by a client.
+    pub fn requested(&self) -> bool {
+        self.preempted()
+            || self
+                .stops
+                .cancelled
+                .lock()
+                .expect("lock")
+                .contains(&self.id)
+    }
+
+    /// How a goal that stopped on request ends: aborted when preempted (as Nav2's
+    /// SimpleActionServer ends the goal a newer one replaces), canceled when a client asked.
+    pub fn end_status(&self) -> GoalEndStatus {
+        if self.preempted() {
+            GoalEndStatus::Aborted
+        } else {
+            GoalEndStatus::Canceled
+        }
+    }
+}
+
+/// Sends one goal's feedback.
+pub struct Feedback<G, R, F>
+where
+    G: Message + Clone,
+    R: Message + Clone,
+    F: Message,
+{
+    server: Arc<AsyncActionServer<G, R, F>>,
+    executing: ExecutingGoalHandle<G>,
+}
+
+impl<G, R, F> Clone for Feedback<G, R, F>
+where
+    G: Message + Clone,
+    R: Message + Clone,
+    F: Message,
+{
+    fn clone(&self) -> Self {
+        Self {
+            server: self.server.clone(),
+            executing: self.executing.clone(),
+        }
+    }
+}
+
+impl<G, R, F> Feedback<G, R, F>
+where
+    G: Message + Clone,
+    R: Message + Clone,
+    F: Message,
+{
+    /// Publishes `feedback`; a goal that has ended meanwhile has none (nothing to do).
+    pub async fn send(&self, feedback: F) {
+        let _ = self
+            .server
+            .publish_feedback(self.executing.clone(), feedback)
+            .await;
+    }
+}
+
+/// Serves the action `name` until the node stops: each accepted goal runs `run(goal, stop,
+/// feedback)` on a task of its own, and its result goes back to the client.
+pub async fn serve<G, R, F, Run, Fut>(
+    s: Arc<Shared>,
+    name: &'static str,
+    server: AsyncActionServer<G, R, F>,
+    run: Run,
+) where
+    G: Message + Clone + Send + Sync + 'static,
+    R: Message + Clone + Send + Sync + 'static,
+    F: Message + Send + Sync + 'static,
+    Run: Fn(G, GoalStop, Feedback<G, R, F>) -> Fut,
+    Fut: Future<Output = (GoalEndStatus, R)> + Send + 'static,
+{
+    let server = Arc::new(server);
+    let stops = Arc::new(Stops::default());
+    // Goals and cancels side by side; both end when the node's task set is shut down.
+    tokio::join!(
+        serve_goals(s, name, server.clone(), stops.clone(), run),
+        serve_cancels(name, server, stops)
+    );
+}
+
+async fn serve_goals<G, R, F, Run, Fut>(
+    s: Arc<Shared>,
+    name: &'static str,
+    server: Arc<AsyncActionServer<G, R, F>>,
+    stops: Arc<Stops>,
+    run: Run,
+) where
+    G: Message + Clone + Send + Sync + 'static,
+    R: Message + Clone + Send + Sync + 'static,
+    F: Message + Send + Sync + 'static,
+    Run: Fn(G, GoalStop, Feedback<G, R, F>) -> Fut,
+    Fut: Future<Output = (GoalEndStatus, R)> + Send + 'static,
+{
+    loop {
+        let handle = match server.receive_new_goal().await {
+            Ok(h) => h,
+            Err(e) => {
+                warn!("{name}: {e:?}");
+                continue;
+            }
+        };
+        let Some(goal) = server.get_new_goal(handle.clone()) else {
+            continue;
+        };
+        // Inactive (lifecycle): refused at the door, as Nav2's deactivated action servers do.
+        if let Some(refusal) = s.refusal() {
+            info!("{name}: goal rejected: {}", refusal.message);
+            if let Err(e) = server.reject_goal(handle).await {
+                warn!("{name}: reject: {e:?}");
+            }
+            continue;
+        }
+        let number = stops.newest.fetch_add(1, Ordering::SeqCst) + 1;
+        let accepted = match server.accept_goal(handle).await {
+            Ok(a) => a,
+            Err(e) => {
+                warn!("{name}: accept: {e:?}");
+                continue;
+            }
+        };
+        let executing = match server.start_executing_goal(accepted).await {
+            Ok(x) => x,
+            Err(e) => {
+                warn!("{name}: execute: {e:?}");
+                continue;
+            }
+        };
+        let id = executing.goal_id();
+        let stop = GoalStop {
+            stops: stops.clone(),
+            number,
+            id,
+        };
+        let feedback = Feedback {
+            server: server.clone(),
+            executing: executing.clone(),
+        };
+        let running = run(goal, stop, feedback);
+        let (server, stops) = (server.clone(), stops.clone());
+        tokio::spawn(async move {
+            let (status, result) = running.await;
+            stops.cancelled.lock().expect("lock").remove(&id);
+            if let Err(e) = server.send_result_response(executing, status, result).await {
+                warn!("{name}: result: {e:?}");
+            }
+        });
+    }
+}
+
+/// Accepts every cancel request for a goal still running; the goal's run notices it
+/// ([`GoalStop::requested`]) and ends it as canceled.
+async fn serve_cancels<G, R, F>(
+    name: &'static str,
+    server: Arc<AsyncActionServer<G, R, F>>,
+    stops: Arc<Stops>,
+) where
+    G: Message + Clone,
+    R: Message + Clone,
+    F: Message,
+{
+    loop {
+        let handle = match server.receive_cancel_request().await {
+            Ok(h) => h,
+            Err(e) => {
+                warn!("{name} cancel: {e:?}");
+                continue;
+            }
+        };
+        let goals: Vec<GoalId> = handle.goals().collect();
+        stops
+            .cancelled
+            .lock()
+            .expect("lock")
+            .extend(goals.iter().copied());
+        if let Err(e) = server
+            .respond_to_cancel_requests(&handle, goals.into_iter())
+            .await
+        {
+            warn!("{name} cancel response: {e:?}");
+        }
+    }
+}

@@ -1,0 +1,112 @@
+"""NavigateToPose from outside, as nav2_simple_commander's goToPose sends it (nav2_msgs Jazzy, on
+`navigate_to_pose`): the node plans from where the robot is and drives the simulated car there
+(chassis_bridge), with bt_navigator's feedback (the robot's pose in map, distance remaining,
+navigation time). Checked on the bundled map: a goal is reached (from /odom: within the
+follower's tolerance, stopped) and succeeds, its distance_remaining falling to about zero; a
+newer goal preempts a running one, which ends aborted while the newer one is driven to; a cancel
+ends the goal canceled and the car stops; a goal inside a cabinet is aborted with the planner's
+GOAL_OCCUPIED (206). /cmd_vel stays within 0.6 m/s and 0.4 rad/s throughout."""
+import math
+
+import rclpy
+from action_msgs.msg import GoalStatus
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.action import ActionClient
+
+from nav2_msgs.action import NavigateToPose
+
+from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
+
+MAP = ROOT / "config" / "maps" / "datacenter_100.yaml"
+NEAR = (2.0, 0.6, 0.0)  # about 2 m from the car's start (0.1, 0.1)
+FAR = (5.0, 1.0, 0.0)
+CABINET = (3.1, 1.9, 0.0)
+
+
+def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_does(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n"
+        f"    map_yaml: {MAP}\n    planner: any_angle\n"
+    )
+    domain = domain_id(55)
+    node = start_node(domain, params, "patrol_planner_navigate_test.log")
+    bridge = start_bridge(domain, ROOT / "config" / "chassis.yaml", "chassis_bridge_navigate_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        odom, cmds = [], []
+        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
+        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+        client = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
+        ros.spin_until(lambda: client.server_is_ready(), 45, "the navigate_to_pose action")
+
+        def send(x, y, yaw, feedback=None):
+            goal = NavigateToPose.Goal(pose=stamped(x, y, yaw))
+            sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback is not None and feedback.append(f.feedback))
+            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, f"acceptance of the goal ({x}, {y})")
+            assert handle.accepted
+            return handle, handle.get_result_async()
+
+        def at(x, y, slack=0.15):
+            p = odom[-1].pose.pose.position
+            return math.hypot(p.x - x, p.y - y) <= slack
+
+        def moved_off(x0, y0, d):
+            p = odom[-1].pose.pose.position
+            return math.hypot(p.x - x0, p.y - y0) >= d
+
+        # Reached: succeeded, at the goal, stopped; the feedback counts the way down.
+        feedback = []
+        _, result = send(*NEAR, feedback=feedback)
+        ros.spin_until(result.done, 90, "the first goal's result")
+        r = result.result()
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
+        ros.spin_for(0.5)
+        assert at(NEAR[0], NEAR[1]) and abs(odom[-1].twist.twist.linear.x) < 1e-3
+        assert len(feedback) >= 5, len(feedback)
+        assert feedback[0].distance_remaining > 1.5 and feedback[-1].distance_remaining < 0.3, \
+            [f.distance_remaining for f in feedback]
+        assert all(f.current_pose.header.frame_id == "map" for f in feedback)
+        assert feedback[-1].navigation_time.sec >= 1
+
+        # Preempted: a goal to FAR, replaced once the car is under way by one back to NEAR's
+        # neighbour: the first ends aborted, the second succeeds.
+        p0 = odom[-1].pose.pose.position
+        _, first = send(*FAR)
+        ros.spin_until(lambda: moved_off(p0.x, p0.y, 0.5), 60, "the car under way to the far goal")
+        _, second = send(1.0, 0.5, math.pi)
+        ros.spin_until(first.done, 30, "the preempted goal's result")
+        assert first.result().status == GoalStatus.STATUS_ABORTED, first.result().status
+        ros.spin_until(second.done, 90, "the preempting goal's result")
+        assert second.result().status == GoalStatus.STATUS_SUCCEEDED, second.result().result.error_msg
+        assert at(1.0, 0.5)
+
+        # Cancelled: under way, cancelled; the car stops short of the goal.
+        p0 = odom[-1].pose.pose.position
+        handle, cancelled = send(*FAR)
+        ros.spin_until(lambda: moved_off(p0.x, p0.y, 0.5), 60, "the car under way again")
+        done = handle.cancel_goal_async()
+        ros.spin_until(done.done, 30, "the cancel's answer")
+        ros.spin_until(cancelled.done, 30, "the cancelled goal's result")
+        assert cancelled.result().status == GoalStatus.STATUS_CANCELED, cancelled.result().status
+        ros.spin_until(lambda: abs(odom[-1].twist.twist.linear.x) < 1e-3 and abs(odom[-1].twist.twist.angular.z) < 1e-3,
+                       10, "the car stopped after the cancel")
+        assert not at(FAR[0], FAR[1], 0.5)
+
+        # Refused by the planner: aborted with its code and reason.
+        _, blocked = send(*CABINET)
+        ros.spin_until(blocked.done, 30, "the blocked goal's result")
+        b = blocked.result()
+        assert b.status == GoalStatus.STATUS_ABORTED and b.result.error_code == 206, (b.status, b.result)
+        assert b.result.error_msg
+
+        for c in cmds:
+            assert abs(c.linear.x) <= 0.6 + 1e-9 and abs(c.angular.z) <= 0.4 + 1e-9
+    finally:
+        ros.close()
+        try:
+            stop_binary(bridge)
+        finally:
+            stop_binary(node)
