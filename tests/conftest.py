@@ -1,6 +1,7 @@
 """Fixtures for the rclpy integration tests: the real patrol_planner release binary on its own
 ROS_DOMAIN_ID, and an rclpy node that talks to it the way a ROS 2 user's stack would. Tests wait
 for discovery and answers, never for fixed sleeps."""
+import contextlib
 import functools
 import math
 import os
@@ -187,6 +188,29 @@ def start_node(domain, params_file, log_name, ros_args=()):
 def start_bridge(domain, params_file, log_name, rust_log="chassis_bridge=info,warn"):
     """The real chassis_bridge on `domain`, its output in target/`log_name`."""
     return start_binary(BRIDGE, domain, params_file, log_name, rust_log)
+
+
+@contextlib.contextmanager
+def driving_rig(offset, node_params, bridge_params, name):
+    """The real node and chassis_bridge (the simulated car) on a domain of their own (`offset`,
+    as `domain_id` takes it), their output in target/patrol_planner_`name`_test.log and
+    target/chassis_bridge_`name`_test.log, and a client beside them; all stopped afterwards."""
+    domain = domain_id(offset)
+    node = start_node(domain, node_params, f"patrol_planner_{name}_test.log")
+    try:
+        bridge = start_bridge(domain, bridge_params, f"chassis_bridge_{name}_test.log")
+    except BaseException:
+        stop_binary(node)
+        raise
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        yield ros
+    finally:
+        ros.close()
+        try:
+            stop_binary(bridge)
+        finally:
+            stop_binary(node)
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,6 @@ ends the goal canceled and the car stops; a goal inside a cabinet is aborted wit
 GOAL_OCCUPIED (206). /cmd_vel stays within 0.6 m/s and 0.4 rad/s throughout."""
 import math
 
-import rclpy
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
@@ -16,7 +15,7 @@ from rclpy.action import ActionClient
 
 from nav2_msgs.action import NavigateToPose
 
-from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
+from conftest import ROOT, driving_rig, stamped
 
 MAP = ROOT / "config" / "maps" / "datacenter_100.yaml"
 NEAR = (2.0, 0.6, 0.0)  # about 2 m from the car's start (0.1, 0.1)
@@ -30,11 +29,7 @@ def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_doe
         "patrol_planner:\n  ros__parameters:\n"
         f"    map_yaml: {MAP}\n    planner: any_angle\n"
     )
-    domain = domain_id(55)
-    node = start_node(domain, params, "patrol_planner_navigate_test.log")
-    bridge = start_bridge(domain, ROOT / "config" / "chassis.yaml", "chassis_bridge_navigate_test.log")
-    ros = Ros(domain, context=rclpy.Context())
-    try:
+    with driving_rig(55, params, ROOT / "config" / "chassis.yaml", "navigate") as ros:
         odom, cmds = [], []
         ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
         ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
@@ -104,9 +99,3 @@ def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_doe
 
         for c in cmds:
             assert abs(c.linear.x) <= 0.6 + 1e-9 and abs(c.angular.z) <= 0.4 + 1e-9
-    finally:
-        ros.close()
-        try:
-            stop_binary(bridge)
-        finally:
-            stop_binary(node)

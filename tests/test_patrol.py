@@ -17,7 +17,6 @@ import math
 import subprocess
 import time
 
-import rclpy
 import yaml
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
@@ -25,7 +24,7 @@ from rclpy.action import ActionClient
 
 from nav2_msgs.action import FollowWaypoints
 
-from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
+from conftest import ROOT, driving_rig, stamped
 
 MAP = ROOT / "config" / "maps" / "datacenter_100.yaml"
 ROUTE = yaml.safe_load((ROOT / "config" / "routes" / "datacenter_patrol.yaml").read_text())
@@ -67,11 +66,7 @@ def test_the_bundled_patrol_twice_in_the_best_order_on_time_with_the_missed_poin
         f"    map_yaml: {MAP}\n"
         f"    planner: any_angle\n    waypoint_pause_duration: {PAUSE}\n"
     )
-    domain = domain_id(45)
-    node = start_node(domain, params, "patrol_planner_patrol_test.log")
-    bridge = start_bridge(domain, ROOT / "config" / "chassis.yaml", "chassis_bridge_patrol_test.log")
-    ros = Ros(domain, context=rclpy.Context())
-    try:
+    with driving_rig(45, params, ROOT / "config" / "chassis.yaml", "patrol") as ros:
         odom, cmds, feedback = [], [], []
         ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
         ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
@@ -115,9 +110,3 @@ def test_the_bundled_patrol_twice_in_the_best_order_on_time_with_the_missed_poin
         ratio = measured / predicted
         print(f"patrol: measured {measured:.1f} s, predicted {predicted:.1f} s (x{ratio:.3f})")
         assert abs(ratio - 1) <= 0.15, f"measured {measured:.1f} s against {predicted:.1f} s predicted"
-    finally:
-        ros.close()
-        try:
-            stop_binary(bridge)
-        finally:
-            stop_binary(node)

@@ -1,13 +1,18 @@
 """Replanning while following, as Nav2 does it (navigation2 PR 2841): the node and the simulated
 car on a domain of their own, the bundled map published by this test. While the car follows its
 plan, a new map that blocks the path ahead makes the node plan again (a new /plan that avoids the
-block, and the car drives on); a new map that does not touch the path leaves the plan as it was."""
+block, and the car drives on); a new map that does not touch the path leaves the plan as it was.
+Then the same for a NavigateToPose goal: its path planned again round a new block, the action
+still succeeds."""
 import math
 
-import rclpy
+from action_msgs.msg import GoalStatus
 from nav_msgs.msg import Odometry
+from rclpy.action import ActionClient
 
-from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
+from nav2_msgs.action import NavigateToPose
+
+from conftest import ROOT, driving_rig, stamped
 from test_node import assert_collision_free, grid_msg
 from test_vehicle import bundled_map
 
@@ -27,11 +32,7 @@ def blocked(grid, x, y, half=0.5):
 def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path):
     params = tmp_path / "planner.yaml"
     params.write_text("patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    planner: astar\n")
-    domain = domain_id(40)
-    node = start_node(domain, params, "patrol_planner_replan_test.log")
-    bridge = start_bridge(domain, ROOT / "config" / "chassis.yaml", "chassis_bridge_replan_test.log")
-    ros = Ros(domain, context=rclpy.Context())
-    try:
+    with driving_rig(40, params, ROOT / "config" / "chassis.yaml", "replan") as ros:
         odom = []
         ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
         grid = bundled_map()
@@ -67,9 +68,26 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
             return math.hypot(p.x - GOAL[0], p.y - GOAL[1]) <= 0.15 and abs(odom[-1].twist.twist.linear.x) < 1e-3
 
         ros.spin_until(arrived, 90, "the car to reach the goal round the new block")
-    finally:
-        ros.close()
-        try:
-            stop_binary(bridge)
-        finally:
-            stop_binary(node)
+
+        # The same for a NavigateToPose goal (drive.rs): the path planned again is still the
+        # action's, which goes on and succeeds, not aborted as if a newer goal had come.
+        client = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
+        ros.spin_until(lambda: client.server_is_ready(), 45, "the navigate_to_pose action")
+        home = (0.5, 0.5)
+        before = len(ros.plans)
+        sent = client.send_goal_async(NavigateToPose.Goal(pose=stamped(*home)))
+        handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "the action goal's acceptance")
+        assert handle.accepted
+        result = handle.get_result_async()
+        plan = ros.spin_until(lambda: next((p for p in ros.plans[before:] if p.poses), None), 30, "the action's /plan")
+        pts = [(p.pose.position.x, p.pose.position.y) for p in plan.poses]
+        car = odom[-1].pose.pose.position
+        ahead = [p for p in pts if math.hypot(p[0] - car.x, p[1] - car.y) > 2.5 and math.hypot(p[0] - home[0], p[1] - home[1]) > 1.5]
+        assert ahead, "no stretch of the action's path left to block"
+        bx, by = ahead[len(ahead) // 2]
+        before = len(ros.plans)
+        ros.map_pub.publish(grid_msg(blocked(new_grid, bx, by, half=0.3), origin=(0.0, 0.0), res=RES))
+        ros.spin_until(lambda: [p for p in ros.plans[before:] if p.poses], 15, "a new /plan for the action's goal")
+        ros.spin_until(result.done, 90, "the action's result")
+        r = result.result()
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"

@@ -192,44 +192,53 @@ def test_goals_in_odom_and_base_link_are_carried_into_the_map(ros):
     """A goal stamped in `odom` goes through the node's map -> odom, one in `base_link` through
     the robot's pose (as planner_server transforms a goal to its global frame); another frame is
     TF_ERROR. map -> odom is made non-trivial first: odometry at (2, 0) in odom, then an initial
-    pose at world(1, 1) facing +x, which anchors map -> odom = world(1, 1) - (2, 0)."""
+    pose at world(1, 1) facing +x, which anchors map -> odom = world(1, 1) - (2, 0). It is put
+    back to the identity at the end (an initial pose at (2, 0)): the chassis tests that run on
+    this node after it drive with odometry in the map frame."""
     use_test_map(ros)
     odom_pub = ros.node.create_publisher(Odometry, "/odom", 10)
+    odometry = Odometry()
+    odometry.header.frame_id = "odom"
+    odometry.pose.pose.position.x = 2.0
+    odometry.pose.pose.orientation.w = 1.0
+    target = world(11.5, 7.0)
+
+    def plan_in(frame, x, y, start=None):
+        req = GetPlan.Request(goal=stamped(x, y, frame=frame), tolerance=0.0)
+        if start is None:
+            req.start.header.frame_id = ""  # from the robot's pose
+        else:
+            req.start = stamped(*start)
+        return call_service(ros, GetPlan, MAKE_PLAN, req).plan
+
+    def ends_at(plan, end, start=world(1.0, 1.0)):
+        if not plan.poses:
+            return False
+        first, last = plan.poses[0].pose.position, plan.poses[-1].pose.position
+        return (math.hypot(first.x - start[0], first.y - start[1]) < 1e-6
+                and math.hypot(last.x - end[0], last.y - end[1]) < 1e-6)
+
+    def anchor_at(x, y, then):
+        odom_pub.publish(odometry)
+        ros.spin_for(0.2)
+        ros.initial_pub.publish(initial_pose(x, y))
+        ros.spin_for(0.3)
+        return then()
+
     try:
         ros.wait_matched(odom_pub, "/odom")
-        odometry = Odometry()
-        odometry.header.frame_id = "odom"
-        odometry.pose.pose.position.x = 2.0
-        odometry.pose.pose.orientation.w = 1.0
-        target = world(11.5, 7.0)
-
-        def plan_in(frame, x, y):
-            req = GetPlan.Request(goal=stamped(x, y, frame=frame), tolerance=0.0)
-            req.start.header.frame_id = ""  # from the robot's pose
-            return call_service(ros, GetPlan, MAKE_PLAN, req).plan
-
-        def ends_at_target(frame, x, y):
-            plan = plan_in(frame, x, y)
-            if not plan.poses:
-                return False
-            first, last = plan.poses[0].pose.position, plan.poses[-1].pose.position
-            return (math.hypot(first.x - world(1.0, 1.0)[0], first.y - world(1.0, 1.0)[1]) < 1e-6
-                    and math.hypot(last.x - target[0], last.y - target[1]) < 1e-6)
-
-        def anchored():
-            odom_pub.publish(odometry)
-            ros.spin_for(0.2)
-            ros.initial_pub.publish(initial_pose(*world(1.0, 1.0)))
-            ros.spin_for(0.3)
-            # The target in odom: map -> odom is a shift by world(1, 1) - (2, 0).
-            return ends_at_target("odom", target[0] - world(1.0, 1.0)[0] + 2.0, target[1] - world(1.0, 1.0)[1])
-
-        ros.spin_until(anchored, 30, "a goal in odom planned to its place in the map")
+        # The target in odom: map -> odom is a shift by world(1, 1) - (2, 0).
+        in_odom = (target[0] - world(1.0, 1.0)[0] + 2.0, target[1] - world(1.0, 1.0)[1])
+        ros.spin_until(lambda: anchor_at(*world(1.0, 1.0), lambda: ends_at(plan_in("odom", *in_odom), target)),
+                       30, "a goal in odom planned to its place in the map")
         # The robot is at world(1, 1) facing +x: the target is (10.5, 6) ahead and to the left.
-        assert ends_at_target("base_link", 10.5, 6.0)
+        assert ends_at(plan_in("base_link", 10.5, 6.0), target)
         i = len(ros.diagnostics)
         assert not plan_in("camera_link", 1.0, 0.0).poses
         code, why, _ = ros.wait_code(i, "TF_ERROR")
         assert "`camera_link`" in why, why
     finally:
+        # map -> odom back to the identity: odom's target is the map's again.
+        ros.spin_until(lambda: anchor_at(2.0, 0.0, lambda: ends_at(plan_in("odom", *target, start=world(1.0, 1.0)), target)),
+                       30, "map -> odom back to the identity")
         ros.node.destroy_publisher(odom_pub)

@@ -6,11 +6,10 @@ import math
 import time
 
 import pytest
-import rclpy
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
 
-from conftest import ROOT, Ros, domain_id, stamped, start_bridge, start_node, stop_binary
+from conftest import ROOT, driving_rig, stamped
 GOAL = (2.5, 0.3)  # 2.4 m from the simulated car's start at (0.1, 0.1), round no obstacle
 
 
@@ -24,18 +23,8 @@ def stamped_rig(tmp_path_factory):
     )
     bridge_params = folder / "chassis.yaml"
     bridge_params.write_text("chassis_bridge:\n  ros__parameters:\n    enable_stamped_cmd_vel: true\n")
-    domain = domain_id(75)
-    node = start_node(domain, node_params, "patrol_planner_stamped_test.log")
-    bridge = start_bridge(domain, bridge_params, "chassis_bridge_stamped_test.log")
-    ros = Ros(domain, context=rclpy.Context())
-    try:
+    with driving_rig(75, node_params, bridge_params, "stamped") as ros:
         yield ros
-    finally:
-        ros.close()
-        try:
-            stop_binary(bridge)
-        finally:
-            stop_binary(node)
 
 
 def test_stamped_cmd_vel_drives_the_car(stamped_rig):

@@ -5,6 +5,7 @@
 //! What a goal does (plan, patrol, drive) is the run's business: it gets the goal, a
 //! [`GoalStop`] to poll, and a [`Feedback`] sender.
 
+use crate::outputs::Outputs;
 use crate::state::Shared;
 use log::{info, warn};
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
@@ -47,6 +48,15 @@ impl GoalStop {
                 .lock()
                 .expect("lock")
                 .contains(&self.id)
+    }
+
+    /// Why a goal that stopped on request stopped, for its result's message.
+    pub fn reason(&self) -> &'static str {
+        if self.preempted() {
+            "preempted by a newer goal"
+        } else {
+            "canceled"
+        }
     }
 
     /// How a goal that stopped on request ends: aborted when preempted (as Nav2's
@@ -100,10 +110,11 @@ where
     }
 }
 
-/// Serves the action `name` until the node stops: each accepted goal runs `run(goal, stop,
-/// feedback)` on a task of its own, and its result goes back to the client.
+/// Serves the action `name` until the node stops: each accepted goal runs `run(s, o, goal,
+/// stop, feedback)` on a task of its own, and its result goes back to the client.
 pub async fn serve<G, R, F, Run, Fut>(
     s: Arc<Shared>,
+    o: Outputs,
     name: &'static str,
     server: AsyncActionServer<G, R, F>,
     run: Run,
@@ -111,85 +122,72 @@ pub async fn serve<G, R, F, Run, Fut>(
     G: Message + Clone + Send + Sync + 'static,
     R: Message + Clone + Send + Sync + 'static,
     F: Message + Send + Sync + 'static,
-    Run: Fn(G, GoalStop, Feedback<G, R, F>) -> Fut,
+    Run: Fn(Arc<Shared>, Outputs, G, GoalStop, Feedback<G, R, F>) -> Fut,
     Fut: Future<Output = (GoalEndStatus, R)> + Send + 'static,
 {
     let server = Arc::new(server);
     let stops = Arc::new(Stops::default());
-    // Goals and cancels side by side; both end when the node's task set is shut down.
-    tokio::join!(
-        serve_goals(s, name, server.clone(), stops.clone(), run),
-        serve_cancels(name, server, stops)
-    );
-}
-
-async fn serve_goals<G, R, F, Run, Fut>(
-    s: Arc<Shared>,
-    name: &'static str,
-    server: Arc<AsyncActionServer<G, R, F>>,
-    stops: Arc<Stops>,
-    run: Run,
-) where
-    G: Message + Clone + Send + Sync + 'static,
-    R: Message + Clone + Send + Sync + 'static,
-    F: Message + Send + Sync + 'static,
-    Run: Fn(G, GoalStop, Feedback<G, R, F>) -> Fut,
-    Fut: Future<Output = (GoalEndStatus, R)> + Send + 'static,
-{
-    loop {
-        let handle = match server.receive_new_goal().await {
-            Ok(h) => h,
-            Err(e) => {
-                warn!("{name}: {e:?}");
+    let goals = async {
+        loop {
+            let handle = match server.receive_new_goal().await {
+                Ok(h) => h,
+                Err(e) => {
+                    warn!("{name}: {e:?}");
+                    continue;
+                }
+            };
+            let Some(goal) = server.get_new_goal(handle.clone()) else {
+                continue;
+            };
+            // Inactive (lifecycle): refused at the door, as Nav2's deactivated action servers do.
+            if let Some(refusal) = s.refusal() {
+                info!("{name}: goal rejected: {}", refusal.message);
+                if let Err(e) = server.reject_goal(handle).await {
+                    warn!("{name}: reject: {e:?}");
+                }
                 continue;
             }
-        };
-        let Some(goal) = server.get_new_goal(handle.clone()) else {
-            continue;
-        };
-        // Inactive (lifecycle): refused at the door, as Nav2's deactivated action servers do.
-        if let Some(refusal) = s.refusal() {
-            info!("{name}: goal rejected: {}", refusal.message);
-            if let Err(e) = server.reject_goal(handle).await {
-                warn!("{name}: reject: {e:?}");
-            }
-            continue;
+            let accepted = match server.accept_goal(handle).await {
+                Ok(a) => a,
+                Err(e) => {
+                    warn!("{name}: accept: {e:?}");
+                    continue;
+                }
+            };
+            let executing = match server.start_executing_goal(accepted.clone()).await {
+                Ok(x) => x,
+                Err(e) => {
+                    // Accepted, so the client waits for an end: it gets one.
+                    warn!("{name}: execute: {e:?}");
+                    let _ = server.abort_accepted_goal(accepted).await;
+                    continue;
+                }
+            };
+            // Only a goal that runs preempts the running one.
+            let number = stops.newest.fetch_add(1, Ordering::SeqCst) + 1;
+            let id = executing.goal_id();
+            let stop = GoalStop {
+                stops: stops.clone(),
+                number,
+                id,
+            };
+            let feedback = Feedback {
+                server: server.clone(),
+                executing: executing.clone(),
+            };
+            let running = run(s.clone(), o.clone(), goal, stop, feedback);
+            let (server, stops) = (server.clone(), stops.clone());
+            tokio::spawn(async move {
+                let (status, result) = running.await;
+                stops.cancelled.lock().expect("lock").remove(&id);
+                if let Err(e) = server.send_result_response(executing, status, result).await {
+                    warn!("{name}: result: {e:?}");
+                }
+            });
         }
-        let number = stops.newest.fetch_add(1, Ordering::SeqCst) + 1;
-        let accepted = match server.accept_goal(handle).await {
-            Ok(a) => a,
-            Err(e) => {
-                warn!("{name}: accept: {e:?}");
-                continue;
-            }
-        };
-        let executing = match server.start_executing_goal(accepted).await {
-            Ok(x) => x,
-            Err(e) => {
-                warn!("{name}: execute: {e:?}");
-                continue;
-            }
-        };
-        let id = executing.goal_id();
-        let stop = GoalStop {
-            stops: stops.clone(),
-            number,
-            id,
-        };
-        let feedback = Feedback {
-            server: server.clone(),
-            executing: executing.clone(),
-        };
-        let running = run(goal, stop, feedback);
-        let (server, stops) = (server.clone(), stops.clone());
-        tokio::spawn(async move {
-            let (status, result) = running.await;
-            stops.cancelled.lock().expect("lock").remove(&id);
-            if let Err(e) = server.send_result_response(executing, status, result).await {
-                warn!("{name}: result: {e:?}");
-            }
-        });
-    }
+    };
+    // Goals and cancels side by side; both end when the node's task set is shut down.
+    tokio::join!(goals, serve_cancels(name, server.clone(), stops.clone()));
 }
 
 /// Accepts every cancel request for a goal still running; the goal's run notices it

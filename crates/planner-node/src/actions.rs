@@ -102,11 +102,13 @@ pub async fn serve<G: PlannerGoal>(
     o: Outputs,
     server: AsyncActionServer<G, ComputePathResult, EmptyFeedback>,
 ) {
-    let shared = s.clone();
-    crate::action_server::serve(s, G::NAME, server, move |goal: G, stop, _feedback| {
-        let (s, o) = (shared.clone(), o.clone());
-        async move { run_goal(&s, &o, &goal, &stop).await }
-    })
+    crate::action_server::serve(
+        s,
+        o,
+        G::NAME,
+        server,
+        |s, o, goal: G, stop, _feedback| async move { run_goal(&s, &o, &goal, &stop).await },
+    )
     .await
 }
 
@@ -181,18 +183,12 @@ async fn run_goal<G: PlannerGoal>(
                 from = Pose2::new(plan.goal.x, plan.goal.y, to.yaw);
             }
             Err(f) if f.code == ResultCode::Cancelled => {
-                let preempted = stop.preempted();
-                let why = if preempted {
-                    "preempted by a newer goal"
-                } else {
-                    "canceled"
-                };
+                let why = stop.reason();
                 info!("{}: {why}", G::NAME);
-                let status = stop.end_status();
                 return (
-                    status,
+                    stop.end_status(),
                     ComputePathResult {
-                        error_code: if preempted { G::CODE_BASE } else { 0 },
+                        error_code: if stop.preempted() { G::CODE_BASE } else { 0 },
                         error_msg: why.into(),
                         planning_time: crate::convert::duration_msg(t0.elapsed()),
                         ..ComputePathResult::default()

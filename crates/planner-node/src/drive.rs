@@ -9,10 +9,8 @@ use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
 use crate::state::Shared;
-use chassis::follower::Follower;
 use planner_core::geometry::Pose2;
 use std::future::Future;
-use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -47,11 +45,14 @@ pub struct Progress {
 /// How often a drive checks on the follower and reports its progress.
 const TICK: Duration = Duration::from_millis(100);
 
-/// Drives to `to` (global frame), calling `progress` each tick while the plan is followed.
+/// Drives to `to` (global frame) for goal `mine` (its claim on the robot,
+/// [`Shared::take_robot`]: a patrol takes it once for all its legs), calling `progress` each
+/// tick while the plan is followed.
 pub async fn drive_to<P, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,
     to: Pose2,
+    mine: u64,
     stop: &GoalStop,
     mut progress: P,
 ) -> DriveEnd
@@ -59,19 +60,24 @@ where
     P: FnMut(Progress) -> Fut,
     Fut: Future<Output = ()>,
 {
-    let Some(from) = s.start.read().expect("lock").map(|(p, _)| p) else {
+    if !s.params.follow_plan {
+        return DriveEnd::NoPlan(Failure::new(
+            ResultCode::Unknown,
+            "follow_plan is false: this node plans only, and leaves driving to another controller",
+        ));
+    }
+    let Some(from) = s.robot_pose().await else {
         return DriveEnd::NoPlan(Failure::new(
             ResultCode::NoStartPose,
             "no robot pose yet: publish /initialpose, /amcl_pose or /odom",
         ));
     };
     let tolerance = s.live.read().expect("lock").tolerance;
-    // The robot is this drive's now: a plan for an older goal, or another drive, sees the count
-    // move on and stops; so does this one when a newer goal comes.
-    let mine = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
+    // A newer goal (`/goal_pose`, another action's) takes the robot from this drive; a replan
+    // of this drive's own path (a new map blocks it, inputs.rs) keeps it.
     let superseded = {
         let s = s.clone();
-        move || s.goals.load(Ordering::SeqCst) != mine
+        move || !s.owns_robot(mine)
     };
     let stop_plan = {
         let (stop, superseded) = (stop.clone(), superseded.clone());
@@ -80,7 +86,7 @@ where
     let outcome = planning::plan_off_thread(s, from, to, tolerance, None, stop_plan).await;
     let Some(path) = o.publish(s, &outcome).await else {
         // No plan: the robot does not go on along an older goal's path.
-        release(s, mine);
+        s.stop_following(mine);
         if stop.requested() {
             return DriveEnd::Stopped;
         }
@@ -103,8 +109,9 @@ where
         .sum();
     // Reached where the plan ends: the goal, or the free cell it was moved to.
     let target = points.last().copied().unwrap_or((to.x, to.y));
-    *s.followed.lock().expect("lock") = Some((to, points.clone()));
-    *s.follower.lock().expect("lock") = Follower::new(s.params.follower, points, to.yaw);
+    if !s.follow(mine, to, points, to.yaw) {
+        return DriveEnd::Superseded;
+    }
     // Time to drive it at a third of the speed limit, plus turning on the spot.
     let limit =
         Duration::from_secs_f64(20.0 + 3.0 * length / s.params.twist_limits.max_linear.max(0.05));
@@ -112,9 +119,9 @@ where
     let mut last: Option<(Pose2, Instant)> = None;
     loop {
         tokio::time::sleep(TICK).await;
-        // A newer goal's drive owns the follower now (release leaves it be).
+        // Stopping leaves a newer goal's drive be (`stop_following` checks the owner).
         if stop.requested() {
-            release(s, mine);
+            s.stop_following(mine);
             return DriveEnd::Stopped;
         }
         if superseded() {
@@ -122,7 +129,7 @@ where
         }
         // Deactivated (lifecycle): the node has stopped the robot already.
         if let Some(f) = s.refusal() {
-            release(s, mine);
+            s.stop_following(mine);
             return DriveEnd::NoPlan(f);
         }
         let robot = s.odom.read().expect("lock").map(|(p, _)| p);
@@ -153,9 +160,13 @@ where
             .await;
         }
         if started.elapsed() > limit {
-            release(s, mine);
+            s.stop_following(mine);
             break;
         }
+    }
+    // The follower went: arrived, a failed replan, or a newer goal's plan that failed.
+    if superseded() {
+        return DriveEnd::Superseded;
     }
     let at = s.odom.read().expect("lock").map(|(p, _)| p);
     let reached = at.is_some_and(|p| {
@@ -165,16 +176,5 @@ where
         DriveEnd::Reached
     } else {
         DriveEnd::NotReached
-    }
-}
-
-/// Ends drive `mine`: the follower loop brakes within the acceleration limits to a stop. Not
-/// when a newer goal has taken the robot: its plan, or the one about to come, is not ours to
-/// end (a preempted drive noticing its stop after the newer one has started).
-fn release(s: &Shared, mine: u64) {
-    let mut follower = s.follower.lock().expect("lock");
-    if s.goals.load(Ordering::SeqCst) == mine {
-        *follower = None;
-        *s.followed.lock().expect("lock") = None;
     }
 }

@@ -14,7 +14,6 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
-use std::sync::atomic::Ordering;
 use std::sync::{Arc, Weak};
 use std::time::Instant;
 use tokio::sync::watch;
@@ -134,7 +133,7 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
     if s.follower.lock().expect("lock").is_none() {
         return;
     }
-    let Some((goal, path)) = s.followed.lock().expect("lock").clone() else {
+    let Some((owner, goal, path)) = s.followed.lock().expect("lock").clone() else {
         return;
     };
     let robot = s.odom.read().expect("lock").map(|(p, _)| (p.x, p.y));
@@ -156,8 +155,11 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
             invalid.len(),
             path_length(&ahead[..=*first as usize])
         );
-        let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
-        let _ = slot.send(Some((id, goal)));
+        // Planned again for the goal that has the robot, as its own: a drive of an action
+        // (drive.rs) goes on watching the new path, and a newer goal is not overridden.
+        if s.owns_robot(owner) {
+            let _ = slot.send(Some((owner, goal)));
+        }
     } else {
         info!("{why}: the path being followed is still free, kept");
     }
@@ -295,7 +297,7 @@ pub async fn receive_goals(
         };
         match s.pose_in_global(&msg) {
             Ok(goal) => {
-                let id = s.goals.fetch_add(1, Ordering::SeqCst) + 1;
+                let id = s.take_robot();
                 // Fails only when the planning task has ended, i.e. during shutdown.
                 let _ = slot.send(Some((id, goal)));
             }

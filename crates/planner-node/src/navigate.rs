@@ -28,27 +28,18 @@ const FAILED_TO_MAKE_PROGRESS: u16 = 105;
 
 /// Serves `navigate_to_pose` until the node stops (the door: action_server.rs).
 pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
-    let shared = s.clone();
-    crate::action_server::serve(
-        s,
-        "navigate_to_pose",
-        server,
-        move |goal, stop, feedback| {
-            let (s, o) = (shared.clone(), o.clone());
-            async move { navigate(&s, &o, &goal, &stop, feedback).await }
-        },
-    )
-    .await
+    crate::action_server::serve(s, o, "navigate_to_pose", server, navigate).await
 }
 
 /// One goal: carried into the global frame, planned to, driven to.
 async fn navigate(
-    s: &Arc<Shared>,
-    o: &Outputs,
-    goal: &NavigateToPoseGoal,
-    stop: &GoalStop,
+    s: Arc<Shared>,
+    o: Outputs,
+    goal: NavigateToPoseGoal,
+    stop: GoalStop,
     feedback: Feedback<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>,
 ) -> (GoalEndStatus, NavigateToPoseResult) {
+    let (s, o, stop) = (&s, &o, &stop);
     let failed = |error_code: u16, error_msg: String| {
         warn!("navigate_to_pose: {error_code}: {error_msg}");
         (
@@ -90,7 +81,7 @@ async fn navigate(
         };
         async move { feedback.send(message).await }
     };
-    match drive_to(s, o, to, stop, progress).await {
+    match drive_to(s, o, to, s.take_robot(), stop, progress).await {
         DriveEnd::Reached => {
             info!(
                 "navigate_to_pose: reached ({:.2}, {:.2}) in {:.1} s",
@@ -101,11 +92,7 @@ async fn navigate(
             (GoalEndStatus::Succeeded, NavigateToPoseResult::default())
         }
         DriveEnd::Stopped => {
-            let why = if stop.preempted() {
-                "preempted by a newer goal"
-            } else {
-                "canceled"
-            };
+            let why = stop.reason();
             info!("navigate_to_pose: {why}");
             (
                 stop.end_status(),

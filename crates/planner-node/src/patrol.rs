@@ -34,17 +34,7 @@ pub type Server =
 /// Serves `follow_waypoints` until the node stops; a newer patrol preempts the running one
 /// (the door: action_server.rs).
 pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
-    let shared = s.clone();
-    crate::action_server::serve(
-        s,
-        "follow_waypoints",
-        server,
-        move |goal, stop, feedback| {
-            let (s, o) = (shared.clone(), o.clone());
-            async move { patrol(&s, &o, &goal, &stop, &feedback).await }
-        },
-    )
-    .await
+    crate::action_server::serve(s, o, "follow_waypoints", server, patrol).await
 }
 
 /// The order to visit `poses` in from `robot`: the route planner's over the current map, or the
@@ -119,12 +109,13 @@ fn pass_order(order: &[usize], goal_index: usize, pass: u32) -> Vec<usize> {
 
 /// One patrol: every pass, every waypoint in order.
 async fn patrol(
-    s: &Arc<Shared>,
-    o: &Outputs,
-    goal: &FollowWaypointsGoal,
-    stop: &GoalStop,
-    feedback: &Feedback<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>,
+    s: Arc<Shared>,
+    o: Outputs,
+    goal: FollowWaypointsGoal,
+    stop: GoalStop,
+    feedback: Feedback<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>,
 ) -> (GoalEndStatus, FollowWaypointsResult) {
+    let (s, o, stop) = (&s, &o, &stop);
     let mut result = FollowWaypointsResult::default();
     let mut poses = Vec::with_capacity(goal.poses.len());
     for (i, p) in goal.poses.iter().enumerate() {
@@ -153,13 +144,23 @@ async fn patrol(
         );
         return (GoalEndStatus::Aborted, result);
     }
-    // A patrol sent right after start-up may arrive before the first pose: wait a little for it,
-    // as Nav2 waits for its transform.
-    let asked = Instant::now();
-    while s.start.read().expect("lock").is_none() && asked.elapsed() < Duration::from_secs(3) {
-        tokio::time::sleep(Duration::from_millis(100)).await;
+    if !s.params.follow_plan {
+        result.error_code = 600;
+        result.error_msg =
+            "follow_plan is false: this node plans only, and leaves driving to another controller"
+                .into();
+        return (GoalEndStatus::Aborted, result);
     }
-    let Some(robot) = s.start.read().expect("lock").map(|(p, _)| p) else {
+    // The patrol has the robot from now on, between its legs too, until a newer goal takes it.
+    let mine = s.take_robot();
+    let superseded = |result: FollowWaypointsResult, i: usize| {
+        let mut result = result;
+        result.error_code = 600;
+        result.error_msg =
+            format!("preempted at waypoint {i} by a newer goal on /goal_pose or another action");
+        (GoalEndStatus::Aborted, result)
+    };
+    let Some(robot) = s.robot_pose().await else {
         result.error_code = 600;
         result.error_msg = "no robot pose yet: publish /initialpose, /amcl_pose or /odom".into();
         return (GoalEndStatus::Aborted, result);
@@ -178,6 +179,9 @@ async fn patrol(
             if stop.requested() {
                 return (stop.end_status(), result);
             }
+            if !s.owns_robot(mine) {
+                return superseded(result, i);
+            }
             feedback
                 .send(FollowWaypointsFeedback {
                     current_waypoint: i as u32,
@@ -188,16 +192,10 @@ async fn patrol(
                 goal: goal.poses[i].clone(),
                 error_code: code,
             };
-            match drive_to(s, o, poses[i], stop, |_| async {}).await {
+            match drive_to(s, o, poses[i], mine, stop, |_| async {}).await {
                 DriveEnd::Reached => {}
                 DriveEnd::Stopped => return (stop.end_status(), result),
-                DriveEnd::Superseded => {
-                    result.error_code = 600;
-                    result.error_msg = format!(
-                        "preempted at waypoint {i} by a newer goal on /goal_pose or another action"
-                    );
-                    return (GoalEndStatus::Aborted, result);
-                }
+                DriveEnd::Superseded => return superseded(result, i),
                 DriveEnd::NoPlan(f) => {
                     warn!("follow_waypoints: pass {pass}, waypoint {i} missed: cannot plan to it");
                     result.missed_waypoints.push(missed(nav2_code(f.code, 200)));
@@ -221,6 +219,9 @@ async fn patrol(
             while paused.elapsed() < pause {
                 if stop.requested() {
                     return (stop.end_status(), result);
+                }
+                if !s.owns_robot(mine) {
+                    return superseded(result, i);
                 }
                 tokio::time::sleep(Duration::from_millis(100).min(pause)).await;
             }

@@ -5,7 +5,6 @@
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalSlot, MapState, Shared};
-use chassis::follower::Follower;
 use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::config::PlannerConfig;
@@ -264,25 +263,23 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
             continue;
         }
         let path = o.publish(&s, &outcome).await;
-        // A drive of an action may have taken the robot while this was planned.
-        if s.params.follow_plan && s.goals.load(Ordering::SeqCst) == id {
-            // A new plan replaces the one being followed; a failed goal stops the robot (the
-            // follower loop brakes it within the acceleration limits).
-            let pts: Option<Vec<(f64, f64)>> = path.map(|p| {
-                p.poses
-                    .iter()
-                    .map(|q| (q.pose.position.x, q.pose.position.y))
-                    .collect()
-            });
-            let next = pts.clone().and_then(|pts| {
-                Follower::new(
-                    s.params.follower,
-                    pts,
-                    outcome.result.as_ref().map_or(0.0, |r| r.1),
-                )
-            });
-            *s.followed.lock().expect("lock") = pts.filter(|_| next.is_some()).map(|p| (goal, p));
-            *s.follower.lock().expect("lock") = next;
+        // A new plan replaces the one being followed; a failed goal stops the robot (the
+        // follower loop brakes it within the acceleration limits). Either only while this goal
+        // still has the robot: a newer goal, or an action's drive, may have taken it meanwhile.
+        if s.params.follow_plan {
+            match (path, &outcome.result) {
+                (Some(p), Ok((_, goal_yaw))) => {
+                    let pts = p
+                        .poses
+                        .iter()
+                        .map(|q| (q.pose.position.x, q.pose.position.y))
+                        .collect();
+                    s.follow(id, goal, pts, *goal_yaw);
+                }
+                _ => {
+                    s.stop_following(id);
+                }
+            }
         }
     }
 }

@@ -214,7 +214,6 @@ impl Shared {
         }
     }
 
-    /// Why the node cannot plan now, if it cannot: it is not active.
     /// A goal or start stamped in a frame the node knows (`localization::KnownFrames`: the
     /// global frame, `odom_frame`, `robot_base_frame`) as a pose in the global frame, through
     /// the latest transform; TF_ERROR, with the reason, for any other frame.
@@ -232,6 +231,59 @@ impl Shared {
         Ok(compose(origin, crate::convert::pose2(&msg.pose)?))
     }
 
+    /// The robot's pose (global frame), waiting up to 3 s for the first one: an action goal
+    /// sent right after start-up may arrive before the first odometry, and Nav2 waits for its
+    /// transform the same way (`transform_tolerance`).
+    pub async fn robot_pose(&self) -> Option<Pose2> {
+        let asked = Instant::now();
+        loop {
+            let pose = self.start.read().expect("lock").map(|(p, _)| p);
+            if pose.is_some() || asked.elapsed() >= std::time::Duration::from_secs(3) {
+                return pose;
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+        }
+    }
+
+    /// Takes the robot for a new goal: its number, which every older goal's plan or drive sees
+    /// as newer than its own and stops for ([`Shared::owns_robot`]).
+    pub fn take_robot(&self) -> u64 {
+        self.goals.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1
+    }
+
+    /// Whether goal `owner` still has the robot (no newer goal has taken it).
+    pub fn owns_robot(&self, owner: u64) -> bool {
+        self.goals.load(std::sync::atomic::Ordering::SeqCst) == owner
+    }
+
+    /// Hands the robot `path` (map metres) to follow to `goal`, ending with heading `goal_yaw`,
+    /// if `owner` still has the robot; returns whether it did.
+    pub fn follow(&self, owner: u64, goal: Pose2, path: Vec<(f64, f64)>, goal_yaw: f64) -> bool {
+        let next = Follower::new(self.params.follower, path.clone(), goal_yaw)
+            .map(|f| (f, (owner, goal, path)));
+        self.install_follower(owner, next)
+    }
+
+    /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
+    /// that ends does not stop a newer one's drive.
+    pub fn stop_following(&self, owner: u64) -> bool {
+        self.install_follower(owner, None)
+    }
+
+    /// Under the follower's lock, so a newer goal's plan, installed meanwhile, is never
+    /// overwritten by an older one's (the lock order everywhere: follower, then followed).
+    fn install_follower(&self, owner: u64, next: Option<(Follower, Followed)>) -> bool {
+        let mut follower = self.follower.lock().expect("lock");
+        if !self.owns_robot(owner) {
+            return false;
+        }
+        let (next, followed) = next.unzip();
+        *self.followed.lock().expect("lock") = followed;
+        *follower = next;
+        true
+    }
+
+    /// Why the node cannot plan now, if it cannot: it is not active.
     pub fn refusal(&self) -> Option<crate::result::Failure> {
         let state = *self.lifecycle.read().expect("lock");
         (state != crate::lifecycle::State::Active).then(|| {
@@ -246,8 +298,8 @@ impl Shared {
     }
 }
 
-/// A followed plan's goal and its path (map metres).
-pub type Followed = (Pose2, Vec<(f64, f64)>);
+/// A followed plan's owner (its number in [`Shared::goals`]), goal and path (map metres).
+pub type Followed = (u64, Pose2, Vec<(f64, f64)>);
 
 /// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
 pub type GoalSlot = Option<(u64, Pose2)>;
