@@ -157,9 +157,13 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
         );
         // Planned again for the goal that has the robot, as its own: a drive of an action
         // (drive.rs) goes on watching the new path, and a newer goal is not overridden.
-        if s.owns_robot(owner) {
-            let _ = slot.send(Some((owner, goal)));
-        }
+        // Checked under the slot's own lock, so a newer goal sent meanwhile is not overwritten.
+        slot.send_if_modified(|v| {
+            s.owns_robot(owner) && {
+                *v = Some((owner, goal));
+                true
+            }
+        });
     } else {
         info!("{why}: the path being followed is still free, kept");
     }

@@ -57,6 +57,14 @@ async fn navigate(
             goal.behavior_tree
         );
     }
+    // Checked before the goal takes the robot, so a plan for /goal_pose is not cancelled for it.
+    if !s.params.follow_plan {
+        return failed(
+            200,
+            "follow_plan is false: this node plans only, and leaves driving to another controller"
+                .into(),
+        );
+    }
     let to = match s.pose_in_global(&goal.pose) {
         Ok(p) => p,
         Err(f) => return failed(nav2_code(f.code, 200), f.message),

@@ -153,6 +153,9 @@ async fn patrol(
     }
     // The patrol has the robot from now on, between its legs too, until a newer goal takes it.
     let mine = s.take_robot();
+    // An older goal's path is not driven on while the patrol orders its waypoints (nor after it,
+    // if the patrol stops before its first leg).
+    s.stop_following(mine);
     let superseded = |result: FollowWaypointsResult, i: usize| {
         let mut result = result;
         result.error_code = 600;
