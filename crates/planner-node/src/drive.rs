@@ -1,8 +1,10 @@
 //! One drive to a pose, as Nav2's default navigation tree runs one without its recoveries: plan
 //! from where the robot is, publish the plan, and follow it (follow.rs; a new map that blocks it
-//! has it planned again, inputs.rs) until the robot arrives, a stop is asked for (cancel,
-//! preemption) or the time to drive it runs out. `navigate_to_pose` is one drive;
-//! `follow_waypoints` one per waypoint.
+//! has it planned again, inputs.rs, and the drive goes on along the new path, with that path's
+//! end and time limit) until the robot arrives, a stop is asked for (cancel, preemption), a newer
+//! goal takes the robot (superseded: that goal's drive goes on), the node is deactivated
+//! (lifecycle: the robot stops), or the time to drive it runs out. `navigate_to_pose` is one
+//! drive; `follow_waypoints` one per waypoint.
 
 use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
@@ -27,7 +29,8 @@ pub enum DriveEnd {
     /// No plan, and the planner's reason (on `/diagnostics` too).
     NoPlan(Failure),
     /// Planned and followed, but the robot was not there when the time to drive it ran out
-    /// (stalled, blocked, no odometry).
+    /// (stalled, blocked, no odometry). A replan that failed is [`DriveEnd::NoPlan`], with its
+    /// reason.
     NotReached,
 }
 
@@ -90,6 +93,9 @@ where
         if stop.requested() {
             return DriveEnd::Stopped;
         }
+        if let Some(f) = s.refusal() {
+            return DriveEnd::NoPlan(f);
+        }
         if superseded() {
             return DriveEnd::Superseded;
         }
@@ -103,20 +109,18 @@ where
         .iter()
         .map(|q| (q.pose.position.x, q.pose.position.y))
         .collect();
-    let length: f64 = points
-        .windows(2)
-        .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
-        .sum();
-    // Reached where the plan ends: the goal, or the free cell it was moved to.
-    let target = points.last().copied().unwrap_or((to.x, to.y));
     if !s.follow(mine, to, points, to.yaw) {
-        return DriveEnd::Superseded;
+        return match s.refusal() {
+            Some(f) => DriveEnd::NoPlan(f),
+            None => DriveEnd::Superseded,
+        };
     }
-    // Time to drive it at a third of the speed limit, plus turning on the spot.
-    let limit =
-        Duration::from_secs_f64(20.0 + 3.0 * length / s.params.twist_limits.max_linear.max(0.05));
-    let started = Instant::now();
-    let mut last: Option<(Pose2, Instant)> = None;
+    // The plan being driven: the first, then each replan around a new map (inputs.rs), which
+    // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
+    let mut plan = Plan::default();
+    if let Some(first) = s.followed.lock().expect("lock").as_ref() {
+        plan.update(&first.path, s.params.twist_limits.max_linear);
+    }
     loop {
         tokio::time::sleep(TICK).await;
         // Stopping leaves a newer goal's drive be (`stop_following` checks the owner).
@@ -124,34 +128,36 @@ where
             s.stop_following(mine);
             return DriveEnd::Stopped;
         }
-        if superseded() {
-            return DriveEnd::Superseded;
-        }
         // Deactivated (lifecycle): the node has stopped the robot already.
         if let Some(f) = s.refusal() {
             s.stop_following(mine);
             return DriveEnd::NoPlan(f);
         }
+        if superseded() {
+            return DriveEnd::Superseded;
+        }
         let robot = s.odom.read().expect("lock").map(|(p, _)| p);
         // The follower's own remaining length (it may have been replaced by a replan).
         let remaining = {
             let follower = s.follower.lock().expect("lock");
-            match (follower.as_ref(), robot) {
-                (None, _) => break,
-                (Some(f), Some(p)) => Some(f.remaining(&chassis::Pose {
+            let Some(f) = follower.as_ref() else { break };
+            if let Some(now) = s.followed.lock().expect("lock").as_ref() {
+                plan.update(&now.path, s.params.twist_limits.max_linear);
+            }
+            robot.map(|p| {
+                f.remaining(&chassis::Pose {
                     x: p.x,
                     y: p.y,
                     yaw: p.yaw,
-                })),
-                (Some(_), None) => None,
-            }
+                })
+            })
         };
         if let (Some(robot), Some(remaining_m)) = (robot, remaining) {
             let now = Instant::now();
-            let speed = last.map_or(0.0, |(p, t)| {
+            let speed = plan.last.map_or(0.0, |(p, t)| {
                 (robot.x - p.x).hypot(robot.y - p.y) / (now - t).as_secs_f64().max(1e-3)
             });
-            last = Some((robot, now));
+            plan.last = Some((robot, now));
             progress(Progress {
                 robot,
                 remaining_m,
@@ -159,22 +165,60 @@ where
             })
             .await;
         }
-        if started.elapsed() > limit {
+        if plan.deadline.is_some_and(|d| Instant::now() > d) {
             s.stop_following(mine);
             break;
         }
     }
-    // The follower went: arrived, a failed replan, or a newer goal's plan that failed.
+    // The follower went: arrived, a failed replan, a deactivation, or a newer goal.
+    if let Some(f) = s.refusal() {
+        return DriveEnd::NoPlan(f);
+    }
     if superseded() {
         return DriveEnd::Superseded;
     }
+    if let Some(f) = s.take_failed_replan(mine) {
+        return DriveEnd::NoPlan(f);
+    }
     let at = s.odom.read().expect("lock").map(|(p, _)| p);
-    let reached = at.is_some_and(|p| {
-        (p.x - target.0).hypot(p.y - target.1) <= 2.0 * s.params.follower.goal_tolerance
+    let reached = at.zip(plan.end).is_some_and(|(p, end)| {
+        (p.x - end.0).hypot(p.y - end.1) <= 2.0 * s.params.follower.goal_tolerance
     });
     if reached {
         DriveEnd::Reached
     } else {
         DriveEnd::NotReached
+    }
+}
+
+/// The path a drive is following, as last seen on the follower.
+#[derive(Default)]
+struct Plan {
+    /// The path, to tell a replan from it.
+    path: Option<Arc<Vec<(f64, f64)>>>,
+    /// Where it ends: the goal, or the free cell it was moved to.
+    end: Option<(f64, f64)>,
+    /// When the time to drive it runs out.
+    deadline: Option<Instant>,
+    /// The robot's pose at the last tick and when, for its speed.
+    last: Option<(Pose2, Instant)>,
+}
+
+impl Plan {
+    /// Takes `path` as the plan if it is a new one (the first, or a replan): its end, and time
+    /// to drive it from now at a third of `max_linear`, plus 20 s for turning on the spot.
+    fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, max_linear: f64) {
+        if self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path)) {
+            return;
+        }
+        let length: f64 = path
+            .windows(2)
+            .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+            .sum();
+        self.end = path.last().copied();
+        self.deadline = Some(
+            Instant::now() + Duration::from_secs_f64(20.0 + 3.0 * length / max_linear.max(0.05)),
+        );
+        self.path = Some(path.clone());
     }
 }

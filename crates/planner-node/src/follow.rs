@@ -57,6 +57,8 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                     if status == FollowStatus::Arrived {
                         info!("goal reached");
                         *guard = None;
+                        // Nothing followed any more: a new map has no path to check.
+                        *s.followed.lock().expect("lock") = None;
                     }
                     cmd
                 }

@@ -7,7 +7,7 @@ use crate::convert;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{GoalSlot, MapState, Shared};
+use crate::state::{Followed, GoalRequest, GoalSlot, MapState, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
@@ -130,10 +130,7 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
         }
         *checked = this;
     }
-    if s.follower.lock().expect("lock").is_none() {
-        return;
-    }
-    let Some((owner, goal, path)) = s.followed.lock().expect("lock").clone() else {
+    let Some(Followed { owner, goal, path }) = s.followed.lock().expect("lock").clone() else {
         return;
     };
     let robot = s.odom.read().expect("lock").map(|(p, _)| (p.x, p.y));
@@ -160,7 +157,11 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
         // Checked under the slot's own lock, so a newer goal sent meanwhile is not overwritten.
         slot.send_if_modified(|v| {
             s.owns_robot(owner) && {
-                *v = Some((owner, goal));
+                *v = Some(GoalRequest {
+                    owner,
+                    goal,
+                    replan: true,
+                });
                 true
             }
         });
@@ -301,9 +302,13 @@ pub async fn receive_goals(
         };
         match s.pose_in_global(&msg) {
             Ok(goal) => {
-                let id = s.take_robot();
+                let owner = s.take_robot();
                 // Fails only when the planning task has ended, i.e. during shutdown.
-                let _ = slot.send(Some((id, goal)));
+                let _ = slot.send(Some(GoalRequest {
+                    owner,
+                    goal,
+                    replan: false,
+                }));
             }
             Err(f) => {
                 let planner = s.live.read().expect("lock").planner;

@@ -32,9 +32,6 @@ pub async fn change_state(
             {
                 Some((t, next)) => {
                     *state = next;
-                    if next != State::Active {
-                        *s.follower.lock().expect("lock") = None;
-                    }
                     let event = TransitionEvent {
                         timestamp: stamp_ns(),
                         transition: t.msg(),
@@ -60,6 +57,14 @@ pub async fn change_state(
                 }
             }
         };
+        // Out of the lifecycle's lock (the follower's is taken first everywhere else): a node
+        // no longer active stops the robot. A plan finishing later is not handed to the
+        // follower (`Shared::follow` refuses while inactive), and each action's drive ends
+        // with the node's reason.
+        if *s.lifecycle.read().expect("lock") != State::Active {
+            *s.follower.lock().expect("lock") = None;
+            *s.followed.lock().expect("lock") = None;
+        }
         if let Some(event) = event {
             if let Err(e) = events.async_publish(event).await {
                 warn!("transition_event: {e:?}");

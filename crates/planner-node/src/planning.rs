@@ -4,7 +4,7 @@
 
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{GoalSlot, MapState, Shared};
+use crate::state::{GoalRequest, GoalSlot, MapState, Shared};
 use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::config::PlannerConfig;
@@ -14,7 +14,6 @@ use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use ros2_client::Server;
-use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::watch;
@@ -235,13 +234,20 @@ pub fn task_failure(e: tokio::task::JoinError) -> Failure {
 
 /// Plans the newest goal in the slot, publishes the answer, and hands a successful plan to the
 /// follower (a failed one stops the robot). Goals that arrive faster than plans finish are
-/// coalesced: only the newest is planned.
+/// coalesced: only the newest is planned. A replan (a new map blocked the followed path)
+/// replaces the path only while it is still followed, and a failed one tells the goal's drive
+/// why ([`Shared::replan_failed`]).
 pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<GoalSlot>) {
     while slot.changed().await.is_ok() {
-        let Some((id, goal)) = *slot.borrow_and_update() else {
+        let Some(GoalRequest {
+            owner: id,
+            goal,
+            replan,
+        }) = *slot.borrow_and_update()
+        else {
             continue;
         };
-        if s.goals.load(Ordering::SeqCst) != id {
+        if !s.owns_robot(id) {
             continue; // a newer goal is already waiting
         }
         let start = s.start.read().expect("lock").map(|(p, _)| p);
@@ -256,7 +262,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         };
         let tolerance = s.live.read().expect("lock").tolerance;
         let s2 = s.clone();
-        let newer_goal = move || s2.goals.load(Ordering::SeqCst) != id;
+        let newer_goal = move || !s2.owns_robot(id);
         let outcome = plan_off_thread(&s, start, goal, tolerance, None, newer_goal).await;
         if matches!(&outcome.result, Err(f) if f.code == ResultCode::Cancelled) {
             info!("plan for goal {id} cancelled by a newer goal");
@@ -274,7 +280,29 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                         .iter()
                         .map(|q| (q.pose.position.x, q.pose.position.y))
                         .collect();
-                    s.follow(id, goal, pts, *goal_yaw);
+                    if replan {
+                        s.refollow(id, goal, pts, *goal_yaw);
+                    } else {
+                        s.follow(id, goal, pts, *goal_yaw);
+                    }
+                }
+                (_, result) if replan => {
+                    let why = match result {
+                        Err(f) => f.clone(),
+                        Ok(_) => {
+                            Failure::new(ResultCode::Unknown, "the plan could not be published")
+                        }
+                    };
+                    s.replan_failed(
+                        id,
+                        Failure::new(
+                            why.code,
+                            format!(
+                                "a new map blocked the path, and replanning failed: {}",
+                                why.message
+                            ),
+                        ),
+                    );
                 }
                 _ => {
                     s.stop_following(id);

@@ -107,8 +107,9 @@ pub struct Shared {
     pub checked_grid: Mutex<Weak<MapState>>,
     /// The latest start pose (map frame) and when it arrived.
     pub start: RwLock<Option<(Pose2, Instant)>>,
-    /// Counts the goals that take the robot (each `/goal_pose`, each drive of an action,
-    /// drive.rs): a plan or drive for an older one stops when it moves on.
+    /// Counts the goals that take the robot (each `/goal_pose`, each `navigate_to_pose`, each
+    /// `follow_waypoints` once for all its legs; drive.rs, patrol.rs): a plan or drive for an
+    /// older one stops when it moves on. A replan around a new map keeps its goal's number.
     pub goals: AtomicU64,
     /// `map -> odom` and the recent odometry (see localization.rs).
     pub localization: Mutex<Localization>,
@@ -119,6 +120,9 @@ pub struct Shared {
     /// The goal and path (map metres) of the plan being followed: checked again when a new
     /// map arrives, and replanned only when the new map blocks it.
     pub followed: Mutex<Option<Followed>>,
+    /// Why the last replan of a goal (its number) failed, for its drive to report (drive.rs):
+    /// the follower stops, and the drive's answer says why rather than only "not reached".
+    pub failed_replan: Mutex<Option<(u64, Failure)>>,
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
     /// The lifecycle state: only an active node plans and drives.
@@ -160,6 +164,7 @@ impl Shared {
             odom: RwLock::new(None),
             follower: Mutex::new(None),
             followed: Mutex::new(None),
+            failed_replan: Mutex::new(None),
             moving: AtomicBool::new(false),
         }
     }
@@ -257,29 +262,76 @@ impl Shared {
     }
 
     /// Hands the robot `path` (map metres) to follow to `goal`, ending with heading `goal_yaw`,
-    /// if `owner` still has the robot; returns whether it did.
+    /// if `owner` still has the robot and the node is active; returns whether it did.
     pub fn follow(&self, owner: u64, goal: Pose2, path: Vec<(f64, f64)>, goal_yaw: f64) -> bool {
-        let next = Follower::new(self.params.follower, path.clone(), goal_yaw)
-            .map(|f| (f, (owner, goal, path)));
-        self.install_follower(owner, next)
+        self.install_follower(owner, Some((goal, path, goal_yaw)), Install::NewGoal)
+    }
+
+    /// As [`Shared::follow`], for a replan of `owner`'s goal around a new map: only while that
+    /// goal's path is still being followed. A drive that ended meanwhile (arrived, cancelled,
+    /// out of time) is not started again by its own replan finishing late.
+    pub fn refollow(&self, owner: u64, goal: Pose2, path: Vec<(f64, f64)>, goal_yaw: f64) -> bool {
+        self.install_follower(owner, Some((goal, path, goal_yaw)), Install::Replan)
     }
 
     /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
     /// that ends does not stop a newer one's drive.
     pub fn stop_following(&self, owner: u64) -> bool {
-        self.install_follower(owner, None)
+        self.install_follower(owner, None, Install::NewGoal)
+    }
+
+    /// Stops a replanned goal whose replan failed, with the reason its drive reports, if its path
+    /// is still being followed.
+    pub fn replan_failed(&self, owner: u64, why: Failure) -> bool {
+        let stopped = self.install_follower(owner, None, Install::Replan);
+        if stopped {
+            *self.failed_replan.lock().expect("lock") = Some((owner, why));
+        }
+        stopped
+    }
+
+    /// Takes the reason goal `owner`'s replan failed, if it did.
+    pub fn take_failed_replan(&self, owner: u64) -> Option<Failure> {
+        let mut failed = self.failed_replan.lock().expect("lock");
+        match failed.take() {
+            Some((o, f)) if o == owner => Some(f),
+            other => {
+                *failed = other;
+                None
+            }
+        }
     }
 
     /// Under the follower's lock, so a newer goal's plan, installed meanwhile, is never
-    /// overwritten by an older one's (the lock order everywhere: follower, then followed).
-    fn install_follower(&self, owner: u64, next: Option<(Follower, Followed)>) -> bool {
+    /// overwritten by an older one's (the lock order everywhere: follower, then followed, then
+    /// lifecycle; the lifecycle services take the follower's lock only after releasing theirs).
+    /// Only an active node is handed a path: a plan that finishes after a deactivation does not
+    /// start the robot. Stopping is always allowed.
+    fn install_follower(&self, owner: u64, next: Option<Handover>, how: Install) -> bool {
         let mut follower = self.follower.lock().expect("lock");
+        let mut followed = self.followed.lock().expect("lock");
         if !self.owns_robot(owner) {
             return false;
         }
-        let (next, followed) = next.unzip();
-        *self.followed.lock().expect("lock") = followed;
-        *follower = next;
+        if how == Install::Replan
+            && (follower.is_none() || followed.as_ref().is_none_or(|f| f.owner != owner))
+        {
+            return false;
+        }
+        let Some((goal, path, goal_yaw)) = next else {
+            *follower = None;
+            *followed = None;
+            return true;
+        };
+        if self.refusal().is_some() {
+            return false;
+        }
+        let path = Arc::new(path);
+        let Some(f) = Follower::new(self.params.follower, path.to_vec(), goal_yaw) else {
+            return false;
+        };
+        *follower = Some(f);
+        *followed = Some(Followed { owner, goal, path });
         true
     }
 
@@ -298,11 +350,41 @@ impl Shared {
     }
 }
 
-/// A followed plan's owner (its number in [`Shared::goals`]), goal and path (map metres).
-pub type Followed = (u64, Pose2, Vec<(f64, f64)>);
+/// A path handed to the follower: its goal, the path (map metres), the heading to end with.
+type Handover = (Pose2, Vec<(f64, f64)>, f64);
 
-/// The newest goal waiting to be planned, numbered (see [`Shared::goals`]).
-pub type GoalSlot = Option<(u64, Pose2)>;
+/// How a path is handed to the follower.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Install {
+    /// A goal's first plan (or its stop): while the goal has the robot.
+    NewGoal,
+    /// A replan of the goal's path: while that path is still being followed, too.
+    Replan,
+}
+
+/// The plan being followed: its owner (its number in [`Shared::goals`]), goal and path (map
+/// metres; shared, so a drive can tell a replanned path from the one it started on).
+#[derive(Clone, Debug)]
+pub struct Followed {
+    pub owner: u64,
+    pub goal: Pose2,
+    pub path: Arc<Vec<(f64, f64)>>,
+}
+
+/// A goal for the planning task (`plan_goals`): a `/goal_pose`, or the goal being followed again
+/// after a new map blocked its path.
+#[derive(Clone, Copy, Debug)]
+pub struct GoalRequest {
+    /// The goal's number (see [`Shared::goals`]); a replan keeps its goal's.
+    pub owner: u64,
+    pub goal: Pose2,
+    /// A replan: its path replaces the followed one only while that is still followed
+    /// ([`Shared::refollow`]), and its failure is reported to the goal's drive.
+    pub replan: bool,
+}
+
+/// The newest goal waiting to be planned: newer ones replace it before it is planned.
+pub type GoalSlot = Option<GoalRequest>;
 
 #[cfg(test)]
 mod tests {
@@ -381,6 +463,81 @@ mod tests {
         // Only its reading of unknown cells is the node's.
         s.live.write().unwrap().config.costmap.allow_unknown = true;
         assert!(!Arc::ptr_eq(&first, &s.current_map().unwrap()));
+    }
+
+    fn straight() -> Vec<(f64, f64)> {
+        vec![(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)]
+    }
+
+    #[test]
+    fn a_newer_goal_takes_the_robot_and_an_older_one_cannot_take_it_back() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let goal = Pose2::new(2.0, 0.0, 0.0);
+        let old = s.take_robot();
+        assert!(s.follow(old, goal, straight(), 0.0));
+        let new = s.take_robot();
+        assert!(
+            !s.follow(old, goal, straight(), 0.0),
+            "the older goal's plan came late"
+        );
+        assert!(
+            !s.stop_following(old),
+            "nor does its end stop the newer goal"
+        );
+        assert!(s.follower.lock().unwrap().is_some());
+        assert!(s.stop_following(new));
+        assert!(s.follower.lock().unwrap().is_none() && s.followed.lock().unwrap().is_none());
+    }
+
+    #[test]
+    fn a_replan_replaces_only_a_path_still_followed() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let goal = Pose2::new(2.0, 0.0, 0.0);
+        let id = s.take_robot();
+        assert!(
+            !s.refollow(id, goal, straight(), 0.0),
+            "nothing followed yet"
+        );
+        assert!(s.follow(id, goal, straight(), 0.0));
+        let first = s.followed.lock().unwrap().clone().unwrap().path;
+        assert!(s.refollow(id, goal, vec![(0.0, 0.0), (2.0, 0.0)], 0.0));
+        let second = s.followed.lock().unwrap().clone().unwrap().path;
+        assert!(!Arc::ptr_eq(&first, &second) && second.len() == 2);
+        // The drive ends (cancelled): a replan finishing late does not start it again.
+        assert!(s.stop_following(id));
+        assert!(!s.refollow(id, goal, straight(), 0.0));
+        assert!(s.follower.lock().unwrap().is_none());
+        assert!(!s.replan_failed(id, Failure::new(ResultCode::NoValidPath, "late")));
+        assert!(s.take_failed_replan(id).is_none());
+    }
+
+    #[test]
+    fn a_failed_replan_stops_the_robot_and_tells_its_own_drive_why() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let goal = Pose2::new(2.0, 0.0, 0.0);
+        let id = s.take_robot();
+        assert!(s.follow(id, goal, straight(), 0.0));
+        assert!(s.replan_failed(id, Failure::new(ResultCode::NoValidPath, "walled in")));
+        assert!(s.follower.lock().unwrap().is_none());
+        assert!(
+            s.take_failed_replan(id + 1).is_none(),
+            "another goal's drive is not told"
+        );
+        assert_eq!(s.take_failed_replan(id).unwrap().message, "walled in");
+        assert!(s.take_failed_replan(id).is_none(), "told once");
+    }
+
+    #[test]
+    fn an_inactive_node_is_handed_no_path_but_may_always_stop() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let goal = Pose2::new(2.0, 0.0, 0.0);
+        *s.lifecycle.write().unwrap() = crate::lifecycle::State::Inactive;
+        let id = s.take_robot();
+        assert!(!s.follow(id, goal, straight(), 0.0));
+        assert!(s.follower.lock().unwrap().is_none());
+        assert!(s.stop_following(id));
+        *s.lifecycle.write().unwrap() = crate::lifecycle::State::Active;
+        assert!(s.follow(id, goal, straight(), 0.0));
     }
 
     #[test]
