@@ -128,7 +128,8 @@ where
             s.stop_following(mine);
             return DriveEnd::Stopped;
         }
-        // Deactivated (lifecycle): the node has stopped the robot already.
+        // Deactivated (lifecycle): the node stops the robot; so does the drive, in case it
+        // looked first.
         if let Some(f) = s.refusal() {
             s.stop_following(mine);
             return DriveEnd::NoPlan(f);
@@ -170,7 +171,8 @@ where
             break;
         }
     }
-    // The follower went: arrived, a failed replan, a deactivation, or a newer goal.
+    // The follower went (arrived, a failed replan, a deactivation, a newer goal), or the time
+    // to drive it ran out.
     if let Some(f) = s.refusal() {
         return DriveEnd::NoPlan(f);
     }
@@ -200,13 +202,17 @@ struct Plan {
     end: Option<(f64, f64)>,
     /// When the time to drive it runs out.
     deadline: Option<Instant>,
+    /// When the whole drive's time runs out, replans and all: three times the first plan's, so a
+    /// map that keeps blocking the path does not keep the drive going for ever.
+    cap: Option<Instant>,
     /// The robot's pose at the last tick and when, for its speed.
     last: Option<(Pose2, Instant)>,
 }
 
 impl Plan {
     /// Takes `path` as the plan if it is a new one (the first, or a replan): its end, and time
-    /// to drive it from now at a third of `max_linear`, plus 20 s for turning on the spot.
+    /// to drive it from now at a third of `max_linear`, plus 20 s for turning on the spot (not
+    /// beyond the drive's cap).
     fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, max_linear: f64) {
         if self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path)) {
             return;
@@ -216,9 +222,10 @@ impl Plan {
             .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
             .sum();
         self.end = path.last().copied();
-        self.deadline = Some(
-            Instant::now() + Duration::from_secs_f64(20.0 + 3.0 * length / max_linear.max(0.05)),
-        );
+        let time = Duration::from_secs_f64(20.0 + 3.0 * length / max_linear.max(0.05));
+        let now = Instant::now();
+        let cap = *self.cap.get_or_insert(now + 3 * time);
+        self.deadline = Some((now + time).min(cap));
         self.path = Some(path.clone());
     }
 }

@@ -160,7 +160,7 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
                 *v = Some(GoalRequest {
                     owner,
                     goal,
-                    replan: true,
+                    replaces: Some(path.clone()),
                 });
                 true
             }
@@ -307,7 +307,7 @@ pub async fn receive_goals(
                 let _ = slot.send(Some(GoalRequest {
                     owner,
                     goal,
-                    replan: false,
+                    replaces: None,
                 }));
             }
             Err(f) => {

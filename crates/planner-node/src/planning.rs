@@ -242,8 +242,8 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         let Some(GoalRequest {
             owner: id,
             goal,
-            replan,
-        }) = *slot.borrow_and_update()
+            replaces,
+        }) = slot.borrow_and_update().clone()
         else {
             continue;
         };
@@ -280,13 +280,13 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                         .iter()
                         .map(|q| (q.pose.position.x, q.pose.position.y))
                         .collect();
-                    if replan {
-                        s.refollow(id, goal, pts, *goal_yaw);
+                    if let Some(replaced) = &replaces {
+                        s.refollow(id, replaced, goal, pts, *goal_yaw);
                     } else {
                         s.follow(id, goal, pts, *goal_yaw);
                     }
                 }
-                (_, result) if replan => {
+                (_, result) if replaces.is_some() => {
                     let why = match result {
                         Err(f) => f.clone(),
                         Ok(_) => {
@@ -295,6 +295,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                     };
                     s.replan_failed(
                         id,
+                        replaces.as_ref().expect("a replan"),
                         Failure::new(
                             why.code,
                             format!(

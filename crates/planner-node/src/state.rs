@@ -267,11 +267,20 @@ impl Shared {
         self.install_follower(owner, Some((goal, path, goal_yaw)), Install::NewGoal)
     }
 
-    /// As [`Shared::follow`], for a replan of `owner`'s goal around a new map: only while that
-    /// goal's path is still being followed. A drive that ended meanwhile (arrived, cancelled,
-    /// out of time) is not started again by its own replan finishing late.
-    pub fn refollow(&self, owner: u64, goal: Pose2, path: Vec<(f64, f64)>, goal_yaw: f64) -> bool {
-        self.install_follower(owner, Some((goal, path, goal_yaw)), Install::Replan)
+    /// As [`Shared::follow`], for a replan of the path `replaces` around a new map: only while
+    /// that very path is still being followed. A drive that ended meanwhile (arrived,
+    /// cancelled, out of time), or a patrol gone on to its next leg (the same owner, another
+    /// path), is not sent back by a replan finishing late.
+    pub fn refollow(
+        &self,
+        owner: u64,
+        replaces: &Arc<Vec<(f64, f64)>>,
+        goal: Pose2,
+        path: Vec<(f64, f64)>,
+        goal_yaw: f64,
+    ) -> bool {
+        let how = Install::Replan(replaces, None);
+        self.install_follower(owner, Some((goal, path, goal_yaw)), how)
     }
 
     /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
@@ -280,14 +289,10 @@ impl Shared {
         self.install_follower(owner, None, Install::NewGoal)
     }
 
-    /// Stops a replanned goal whose replan failed, with the reason its drive reports, if its path
-    /// is still being followed.
-    pub fn replan_failed(&self, owner: u64, why: Failure) -> bool {
-        let stopped = self.install_follower(owner, None, Install::Replan);
-        if stopped {
-            *self.failed_replan.lock().expect("lock") = Some((owner, why));
-        }
-        stopped
+    /// Stops a goal whose replan of the path `replaced` failed, if that path is still being
+    /// followed, with the reason its drive reports.
+    pub fn replan_failed(&self, owner: u64, replaced: &Arc<Vec<(f64, f64)>>, why: Failure) -> bool {
+        self.install_follower(owner, None, Install::Replan(replaced, Some(why)))
     }
 
     /// Takes the reason goal `owner`'s replan failed, if it did.
@@ -308,30 +313,43 @@ impl Shared {
     /// Only an active node is handed a path: a plan that finishes after a deactivation does not
     /// start the robot. Stopping is always allowed.
     fn install_follower(&self, owner: u64, next: Option<Handover>, how: Install) -> bool {
+        // Made before the locks are taken: they are held only to swap it in.
+        let next = match next {
+            Some((goal, path, goal_yaw)) => {
+                let path = Arc::new(path);
+                match Follower::new(self.params.follower, path.to_vec(), goal_yaw) {
+                    Some(f) => Some((f, Followed { owner, goal, path })),
+                    None => return false,
+                }
+            }
+            None => None,
+        };
         let mut follower = self.follower.lock().expect("lock");
         let mut followed = self.followed.lock().expect("lock");
         if !self.owns_robot(owner) {
             return false;
         }
-        if how == Install::Replan
-            && (follower.is_none() || followed.as_ref().is_none_or(|f| f.owner != owner))
-        {
-            return false;
+        if let Install::Replan(replaces, _) = &how {
+            let same = |f: &Followed| f.owner == owner && Arc::ptr_eq(&f.path, replaces);
+            if follower.is_none() || !followed.as_ref().is_some_and(same) {
+                return false;
+            }
         }
-        let Some((goal, path, goal_yaw)) = next else {
+        let Some((f, plan)) = next else {
             *follower = None;
             *followed = None;
+            // Told before the follower's lock is let go: the drive that sees no follower finds
+            // the reason waiting.
+            if let Install::Replan(_, Some(why)) = how {
+                *self.failed_replan.lock().expect("lock") = Some((owner, why));
+            }
             return true;
         };
         if self.refusal().is_some() {
             return false;
         }
-        let path = Arc::new(path);
-        let Some(f) = Follower::new(self.params.follower, path.to_vec(), goal_yaw) else {
-            return false;
-        };
         *follower = Some(f);
-        *followed = Some(Followed { owner, goal, path });
+        *followed = Some(plan);
         true
     }
 
@@ -354,12 +372,13 @@ impl Shared {
 type Handover = (Pose2, Vec<(f64, f64)>, f64);
 
 /// How a path is handed to the follower.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Install {
+#[derive(Debug)]
+enum Install<'a> {
     /// A goal's first plan (or its stop): while the goal has the robot.
     NewGoal,
-    /// A replan of the goal's path: while that path is still being followed, too.
-    Replan,
+    /// A replan of the goal's path: while that very path is still being followed, too; with
+    /// the reason, when the replan failed.
+    Replan(&'a Arc<Vec<(f64, f64)>>, Option<Failure>),
 }
 
 /// The plan being followed: its owner (its number in [`Shared::goals`]), goal and path (map
@@ -373,14 +392,14 @@ pub struct Followed {
 
 /// A goal for the planning task (`plan_goals`): a `/goal_pose`, or the goal being followed again
 /// after a new map blocked its path.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct GoalRequest {
     /// The goal's number (see [`Shared::goals`]); a replan keeps its goal's.
     pub owner: u64,
     pub goal: Pose2,
-    /// A replan: its path replaces the followed one only while that is still followed
-    /// ([`Shared::refollow`]), and its failure is reported to the goal's drive.
-    pub replan: bool,
+    /// For a replan, the blocked path it replaces: the new path replaces it only while it is
+    /// still followed ([`Shared::refollow`]), and a failure is reported to the goal's drive.
+    pub replaces: Option<Arc<Vec<(f64, f64)>>>,
 }
 
 /// The newest goal waiting to be planned: newer ones replace it before it is planned.
@@ -494,20 +513,35 @@ mod tests {
         let s = Shared::new(NodeParams::default(), PlannerConfig::default());
         let goal = Pose2::new(2.0, 0.0, 0.0);
         let id = s.take_robot();
+        let none = Arc::new(straight());
         assert!(
-            !s.refollow(id, goal, straight(), 0.0),
+            !s.refollow(id, &none, goal, straight(), 0.0),
             "nothing followed yet"
         );
         assert!(s.follow(id, goal, straight(), 0.0));
         let first = s.followed.lock().unwrap().clone().unwrap().path;
-        assert!(s.refollow(id, goal, vec![(0.0, 0.0), (2.0, 0.0)], 0.0));
+        assert!(
+            !s.refollow(id, &none, goal, straight(), 0.0),
+            "another path, equal or not"
+        );
+        assert!(s.refollow(id, &first, goal, vec![(0.0, 0.0), (2.0, 0.0)], 0.0));
         let second = s.followed.lock().unwrap().clone().unwrap().path;
         assert!(!Arc::ptr_eq(&first, &second) && second.len() == 2);
+        // A patrol's next leg (same owner, new path): the last leg's late replan is refused.
+        assert!(s.follow(id, goal, straight(), 0.0));
+        let leg = s.followed.lock().unwrap().clone().unwrap().path;
+        assert!(!s.refollow(id, &second, goal, straight(), 0.0));
+        let late = Failure::new(ResultCode::NoValidPath, "late");
+        assert!(!s.replan_failed(id, &second, late.clone()));
+        assert!(Arc::ptr_eq(
+            &leg,
+            &s.followed.lock().unwrap().clone().unwrap().path
+        ));
         // The drive ends (cancelled): a replan finishing late does not start it again.
         assert!(s.stop_following(id));
-        assert!(!s.refollow(id, goal, straight(), 0.0));
+        assert!(!s.refollow(id, &leg, goal, straight(), 0.0));
         assert!(s.follower.lock().unwrap().is_none());
-        assert!(!s.replan_failed(id, Failure::new(ResultCode::NoValidPath, "late")));
+        assert!(!s.replan_failed(id, &leg, late));
         assert!(s.take_failed_replan(id).is_none());
     }
 
@@ -517,7 +551,9 @@ mod tests {
         let goal = Pose2::new(2.0, 0.0, 0.0);
         let id = s.take_robot();
         assert!(s.follow(id, goal, straight(), 0.0));
-        assert!(s.replan_failed(id, Failure::new(ResultCode::NoValidPath, "walled in")));
+        let path = s.followed.lock().unwrap().clone().unwrap().path;
+        let why = Failure::new(ResultCode::NoValidPath, "walled in");
+        assert!(s.replan_failed(id, &path, why));
         assert!(s.follower.lock().unwrap().is_none());
         assert!(
             s.take_failed_replan(id + 1).is_none(),
