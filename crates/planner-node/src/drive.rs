@@ -10,7 +10,7 @@ use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
-use crate::state::Shared;
+use crate::state::{path_length, Shared};
 use planner_core::geometry::Pose2;
 use std::future::Future;
 use std::sync::Arc;
@@ -50,7 +50,8 @@ const TICK: Duration = Duration::from_millis(100);
 
 /// Drives to `to` (global frame) for goal `mine` (its claim on the robot,
 /// [`Shared::take_robot`]: a patrol takes it once for all its legs), calling `progress` each
-/// tick while the plan is followed.
+/// tick while the plan is followed. Callers check `follow_plan` first, before the goal takes
+/// the robot.
 pub async fn drive_to<P, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,
@@ -63,12 +64,6 @@ where
     P: FnMut(Progress) -> Fut,
     Fut: Future<Output = ()>,
 {
-    if !s.params.follow_plan {
-        return DriveEnd::NoPlan(Failure::new(
-            ResultCode::Unknown,
-            "follow_plan is false: this node plans only, and leaves driving to another controller",
-        ));
-    }
     let Some(from) = s.robot_pose().await else {
         return DriveEnd::NoPlan(Failure::new(
             ResultCode::NoStartPose,
@@ -86,6 +81,13 @@ where
         let (stop, superseded) = (stop.clone(), superseded.clone());
         move || stop.requested() || superseded()
     };
+    // Why the drive is no longer this goal's to go on with: the node was deactivated (its
+    // reason), or a newer goal took the robot.
+    let taken = || {
+        s.refusal()
+            .map(DriveEnd::NoPlan)
+            .or_else(|| superseded().then_some(DriveEnd::Superseded))
+    };
     let outcome = planning::plan_off_thread(s, from, to, tolerance, None, stop_plan).await;
     let Some(path) = o.publish(s, &outcome).await else {
         // No plan: the robot does not go on along an older goal's path.
@@ -93,11 +95,8 @@ where
         if stop.requested() {
             return DriveEnd::Stopped;
         }
-        if let Some(f) = s.refusal() {
-            return DriveEnd::NoPlan(f);
-        }
-        if superseded() {
-            return DriveEnd::Superseded;
+        if let Some(end) = taken() {
+            return end;
         }
         let why = outcome.result.err().unwrap_or_else(|| {
             Failure::new(ResultCode::Unknown, "the plan could not be published")
@@ -110,10 +109,7 @@ where
         .map(|q| (q.pose.position.x, q.pose.position.y))
         .collect();
     if !s.follow(mine, to, points, to.yaw) {
-        return match s.refusal() {
-            Some(f) => DriveEnd::NoPlan(f),
-            None => DriveEnd::Superseded,
-        };
+        return taken().unwrap_or(DriveEnd::Superseded);
     }
     // The plan being driven: the first, then each replan around a new map (inputs.rs), which
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
@@ -129,13 +125,10 @@ where
             return DriveEnd::Stopped;
         }
         // Deactivated (lifecycle): the node stops the robot; so does the drive, in case it
-        // looked first.
-        if let Some(f) = s.refusal() {
+        // looked first (a newer goal's drive is left be: `stop_following` checks the owner).
+        if let Some(end) = taken() {
             s.stop_following(mine);
-            return DriveEnd::NoPlan(f);
-        }
-        if superseded() {
-            return DriveEnd::Superseded;
+            return end;
         }
         let robot = s.odom.read().expect("lock").map(|(p, _)| p);
         // The follower's own remaining length (it may have been replaced by a replan).
@@ -173,11 +166,8 @@ where
     }
     // The follower went (arrived, a failed replan, a deactivation, a newer goal), or the time
     // to drive it ran out.
-    if let Some(f) = s.refusal() {
-        return DriveEnd::NoPlan(f);
-    }
-    if superseded() {
-        return DriveEnd::Superseded;
+    if let Some(end) = taken() {
+        return end;
     }
     if let Some(f) = s.take_failed_replan(mine) {
         return DriveEnd::NoPlan(f);
@@ -217,12 +207,8 @@ impl Plan {
         if self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path)) {
             return;
         }
-        let length: f64 = path
-            .windows(2)
-            .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
-            .sum();
         self.end = path.last().copied();
-        let time = Duration::from_secs_f64(20.0 + 3.0 * length / max_linear.max(0.05));
+        let time = Duration::from_secs_f64(20.0 + 3.0 * path_length(path) / max_linear.max(0.05));
         let now = Instant::now();
         let cap = *self.cap.get_or_insert(now + 3 * time);
         self.deadline = Some((now + time).min(cap));

@@ -7,7 +7,7 @@ use crate::convert;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{Followed, GoalRequest, GoalSlot, MapState, Shared};
+use crate::state::{path_length, Followed, GoalRequest, GoalSlot, MapState, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
@@ -183,13 +183,6 @@ pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>
             replan_if_blocked(&s, &slot, &map, "the new inflation");
         }
     }
-}
-
-fn path_length(points: &[(f64, f64)]) -> f64 {
-    points
-        .windows(2)
-        .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
-        .sum()
 }
 
 /// `/initialpose` or `/amcl_pose` (`name`): the start of the next plan, and (with

@@ -368,6 +368,14 @@ impl Shared {
     }
 }
 
+/// The length of a path (map metres) along its points.
+pub fn path_length(points: &[(f64, f64)]) -> f64 {
+    points
+        .windows(2)
+        .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+        .sum()
+}
+
 /// A path handed to the follower: its goal, the path (map metres), the heading to end with.
 type Handover = (Pose2, Vec<(f64, f64)>, f64);
 
