@@ -6,7 +6,8 @@
 //! - [`grid`]: the map with OccupancyGrid semantics and its parsers, inflation into the planning
 //!   grid, the one move rule, the one collision rule, path metrics, the delete operation;
 //! - [`planner`]: the one [`Planner`] trait every planner implements, the request, result and
-//!   error types, and [`solve`], which validates, runs, verifies and measures;
+//!   error types, and [`solve`], which validates, runs, verifies and measures (and
+//!   [`solve_through`], which does so leg by leg through via points);
 //! - [`driver`]: the one loop of every population planner, which ends each run with a typed
 //!   [`planner::Termination`];
 //! - [`field`]: the potential fields, the wavefront and the virtual-traction escape;
@@ -54,5 +55,7 @@ pub mod swarm;
 #[cfg(test)]
 pub(crate) mod test_support;
 
-pub use planner::{solve, Plan, PlanContext, PlanError, Planner, PlannerRng, Query, SolveOptions};
+pub use planner::{
+    solve, solve_through, Plan, PlanContext, PlanError, Planner, PlannerRng, Query, SolveOptions,
+};
 pub use planner_name::PlannerName;

@@ -194,6 +194,11 @@ pub struct Plan {
     /// The resolution (m per cell) of the grid the plan was made on: its densified form (a
     /// nav_msgs/Path) is spaced by it, whatever map has arrived since.
     pub resolution: f64,
+    /// Where a plan through via points ([`solve_through`]) passes each of them, in order: the
+    /// point asked for, or the free cell it was moved to. Each is one of `waypoints`. Empty for
+    /// a plan to one goal.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub via: Vec<Point2>,
 }
 
 /// A planning request in world metres.
@@ -403,6 +408,134 @@ pub fn solve(
         pareto,
         goal: info.grid_to_world(problem.goal_point),
         resolution: info.resolution,
+        via: Vec::new(),
+    })
+}
+
+/// Plans from `start` through each of `goals` in order, the last being the goal, as Nav2's
+/// ComputePathThroughPoses does: one [`solve`] per leg on the same grid, with the same planner,
+/// random stream and interrupt (so a time budget is the whole request's), each leg starting
+/// where the one before ended (its goal, or the free cell within `tolerance` it was moved to).
+/// The legs are joined into one plan, measured as a whole ([`join_legs`]). With one goal this
+/// is [`solve`], bit for bit.
+pub fn solve_through(
+    planner: &dyn Planner,
+    grid: &PlanningGrid,
+    start: Point2,
+    goals: &[Point2],
+    tolerance: f64,
+    options: SolveOptions,
+    ctx: &mut PlanContext<'_>,
+) -> Result<Plan, PlanError> {
+    let mut legs = Vec::with_capacity(goals.len());
+    let mut from = start;
+    for (i, &goal) in goals.iter().enumerate() {
+        let query = Query {
+            start: from,
+            goal,
+            tolerance,
+        };
+        let leg = solve(planner, grid, &query, options, ctx).map_err(|e| match e {
+            // The other failures name the point they are about.
+            PlanError::NoValidPath(why) if goals.len() > 1 => PlanError::NoValidPath(format!(
+                "leg {} of {} (to ({}, {})): {why}",
+                i + 1,
+                goals.len(),
+                goal.x,
+                goal.y
+            )),
+            e => e,
+        })?;
+        from = leg.goal;
+        legs.push(leg);
+    }
+    join_legs(legs).ok_or_else(|| PlanError::InvalidInput("no goal given".into()))
+}
+
+/// One plan from consecutive legs (each starting where the one before ends): the waypoints in
+/// order, each leg's end but the last kept as a via point; the metrics of the whole path (the
+/// lengths and costs summed, clearances and corridor widths averaged over length as
+/// [`measure`] averages them, the turning measured across the joins too); the statistics summed
+/// (each leg's notes prefixed with its number; a counter such as `improved_on_seed` then counts
+/// legs). A joined path has no Pareto front of its own: each leg's front was over that leg.
+/// `None` for no legs; one leg is returned as it is.
+pub fn join_legs(legs: Vec<Plan>) -> Option<Plan> {
+    if legs.len() <= 1 {
+        return legs.into_iter().next();
+    }
+    let n = legs.len();
+    let mut waypoints: Vec<Point2> = Vec::new();
+    let mut via = Vec::with_capacity(n - 1);
+    let mut stats = PlanStats::default();
+    let (mut length, mut cost) = (0.0, 0.0);
+    let (mut clearance_sum, mut corridor_sum) = (0.0, 0.0);
+    let (mut min_clearance, mut free, mut resolution) = (f64::INFINITY, true, f64::INFINITY);
+    for (i, leg) in legs.iter().enumerate() {
+        // The leg starts where the last one ended: that point is already in.
+        let skip = usize::from(!waypoints.is_empty());
+        waypoints.extend(leg.waypoints.iter().skip(skip).copied());
+        if i + 1 < n {
+            via.push(*waypoints.last().expect("a leg has points"));
+        }
+        let m = &leg.metrics;
+        length += m.length_m;
+        cost += m.path_cost;
+        min_clearance = min_clearance.min(m.min_clearance_m);
+        free &= m.collision_free;
+        resolution = resolution.min(leg.resolution);
+        // A leg of no length weighs nothing (and its infinite clearance, on a map without
+        // obstacles, would make the sum NaN).
+        if m.length_m > 0.0 {
+            clearance_sum += m.mean_clearance_m * m.length_m;
+            corridor_sum += m.corridor_half_width_m * m.length_m;
+        }
+        let s = &leg.stats;
+        stats.iterations += s.iterations;
+        stats.evaluations += s.evaluations;
+        stats.cut_short |= s.cut_short;
+        // The first leg that did not run to its end says why the request stopped early.
+        if stats.termination.is_none() || stats.termination == Some(Termination::Completed) {
+            stats.termination = s.termination;
+        }
+        for (name, value) in &s.counters {
+            *stats.counters.entry(name.clone()).or_insert(0.0) += value;
+        }
+        let leg_number = i + 1;
+        stats.notes.extend(
+            s.notes
+                .iter()
+                .map(|note| format!("leg {leg_number}: {note}")),
+        );
+    }
+    // A path of no length at all (every goal in the start's cell) has its first point's value.
+    let first = &legs[0].metrics;
+    let averaged = |sum: f64, at_first: f64| {
+        if length > 0.0 {
+            sum / length
+        } else {
+            at_first
+        }
+    };
+    let metrics = PathMetrics {
+        length_m: length,
+        turning_rad: total_turning(&waypoints),
+        turns: crate::grid::metrics::turn_count(&waypoints),
+        min_clearance_m: min_clearance,
+        mean_clearance_m: averaged(clearance_sum, first.mean_clearance_m),
+        path_cost: cost,
+        corridor_half_width_m: averaged(corridor_sum, first.corridor_half_width_m),
+        collision_free: free,
+    };
+    let last = legs.last().expect("more than one leg");
+    Some(Plan {
+        planner: last.planner,
+        waypoints,
+        metrics,
+        stats,
+        pareto: Vec::new(),
+        goal: last.goal,
+        resolution,
+        via,
     })
 }
 
@@ -617,5 +750,106 @@ mod tests {
         );
         // Rounding noise is neither better nor worse.
         assert!(!improves_on(seed, metrics(10.0 + 1e-12, 2.0 - 1e-12)));
+    }
+
+    /// A wall between start and goal: the plan through a via point above it goes there first,
+    /// then on; the joined plan is the two legs end to end, measured as one path; one goal is
+    /// `solve` itself; an occupied via point is refused as an occupied goal.
+    #[test]
+    fn a_plan_through_via_points_passes_each_in_order_and_is_measured_whole() {
+        use crate::config::PlannerConfig;
+        use crate::grid::metrics::measure;
+        let grid = crate::test_support::grid_from_rows(&[
+            "..........",
+            "....#.....",
+            "....#.....",
+            "....#.....",
+            "....#.....",
+            "..........",
+        ]);
+        let config = PlannerConfig {
+            planner: PlannerName::Astar,
+            ..PlannerConfig::default()
+        };
+        let astar = crate::registry::build(&config).unwrap();
+        let (start, via, goal) = (
+            Point2::new(0.5, 2.5),
+            Point2::new(4.5, 5.5),
+            Point2::new(9.5, 2.5),
+        );
+        let through = |goals: &[Point2]| {
+            let mut rng = crate::test_support::rng(3);
+            let mut ctx = PlanContext::never_interrupted(&mut rng);
+            solve_through(
+                astar.as_ref(),
+                &grid,
+                start,
+                goals,
+                0.0,
+                SolveOptions::default(),
+                &mut ctx,
+            )
+        };
+        let leg = |from: Point2, to: Point2| {
+            let mut rng = crate::test_support::rng(3);
+            let mut ctx = PlanContext::never_interrupted(&mut rng);
+            let query = Query {
+                start: from,
+                goal: to,
+                tolerance: 0.0,
+            };
+            solve(
+                astar.as_ref(),
+                &grid,
+                &query,
+                SolveOptions::default(),
+                &mut ctx,
+            )
+            .unwrap()
+        };
+        let plan = through(&[via, goal]).unwrap();
+        assert_eq!(plan.via, vec![via]);
+        let at = plan
+            .waypoints
+            .iter()
+            .position(|&p| p == via)
+            .expect("passes the via point");
+        assert_eq!(plan.waypoints[0], start);
+        assert_eq!(*plan.waypoints.last().unwrap(), goal);
+        assert_eq!(plan.goal, goal);
+        // The legs end to end, the via point once.
+        let (first, second) = (leg(start, via), leg(via, goal));
+        assert_eq!(plan.waypoints[..=at], first.waypoints[..]);
+        assert_eq!(plan.waypoints[at..], second.waypoints[..]);
+        // Measured as one path (1 m cells at the origin: world is grid), the turn at the via
+        // point included.
+        let whole = measure(&grid, &plan.waypoints);
+        let m = &plan.metrics;
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9 * (1.0 + b.abs());
+        assert!(close(m.length_m, whole.length_m), "{m:?} {whole:?}");
+        assert!(close(m.turning_rad, whole.turning_rad), "{m:?} {whole:?}");
+        assert_eq!(m.turns, whole.turns);
+        assert!(close(m.min_clearance_m, whole.min_clearance_m));
+        assert!(
+            close(m.mean_clearance_m, whole.mean_clearance_m),
+            "{m:?} {whole:?}"
+        );
+        assert!(close(m.path_cost, whole.path_cost));
+        assert!(m.collision_free);
+        assert!(
+            m.length_m > leg(start, goal).metrics.length_m,
+            "the detour to the via point"
+        );
+        // One goal: `solve` itself.
+        let direct = through(&[goal]).unwrap();
+        assert_eq!(direct.waypoints, leg(start, goal).waypoints);
+        assert!(direct.via.is_empty());
+        // An occupied via point, as an occupied goal; no goal at all, as invalid input.
+        let wall = Point2::new(4.5, 2.5);
+        assert_eq!(
+            through(&[wall, goal]).unwrap_err(),
+            PlanError::GoalOccupied(wall)
+        );
+        assert!(matches!(through(&[]), Err(PlanError::InvalidInput(_))));
     }
 }

@@ -416,6 +416,7 @@ mod tests {
             pareto: Vec::new(),
             goal: Point2::new(1.0, 0.0),
             resolution: 0.05,
+            via: Vec::new(),
         };
         let msg = diagnostics(Header::default(), plan.planner, 3, Ok(&plan), 1.0);
         let values = &msg.status[0].values;
