@@ -8,6 +8,13 @@
 //! the turn rate stays within its limit on the same curve. A lookahead point more than
 //! `rotate_angle` off the heading is turned to in place first. Within `goal_tolerance` of the
 //! last point the robot turns in place to the goal's heading, then reports `Arrived` and stops.
+//!
+//! A path that turns back on itself (a cusp: consecutive segments more than 90 degrees apart,
+//! as a route out to a via point and back has) is followed up to the cusp first, as Nav2's RPP
+//! cuts its lookahead at a direction change: neither the progress nor the lookahead point looks
+//! past it, the speed is regulated down towards it as towards the goal, and once the robot is
+//! there it turns on the spot onto the way back. Without that, the progress would jump to the
+//! way back where it runs beside the way out, and the robot would turn round short of the cusp.
 
 use crate::limits::TwistLimits;
 use crate::{Pose, Twist2};
@@ -64,6 +71,26 @@ pub struct Follower {
     path: Vec<(f64, f64)>,
     goal_yaw: f64,
     nearest: usize,
+    /// The indices of the path's cusps, in order (see the module's documentation).
+    cusps: Vec<usize>,
+}
+
+/// The indices of the points where `path` turns back: the next segment more than 90 degrees
+/// from the last (points that repeat are skipped: they have no direction).
+fn cusps(path: &[(f64, f64)]) -> Vec<usize> {
+    let mut found = Vec::new();
+    let mut last: Option<(f64, f64)> = None;
+    for (i, w) in path.windows(2).enumerate() {
+        let d = (w[1].0 - w[0].0, w[1].1 - w[0].1);
+        if d == (0.0, 0.0) {
+            continue;
+        }
+        if last.is_some_and(|l| l.0 * d.0 + l.1 * d.1 < 0.0) {
+            found.push(i);
+        }
+        last = Some(d);
+    }
+    found
 }
 
 fn wrap(a: f64) -> f64 {
@@ -73,26 +100,46 @@ fn wrap(a: f64) -> f64 {
 impl Follower {
     /// A follower for `path` (at least one point), ending with heading `goal_yaw`.
     pub fn new(params: FollowerParams, path: Vec<(f64, f64)>, goal_yaw: f64) -> Option<Self> {
-        (!path.is_empty()).then_some(Self {
+        (!path.is_empty()).then(|| Self {
             params,
+            cusps: cusps(&path),
             path,
             goal_yaw,
             nearest: 0,
         })
     }
 
+    /// The farthest path point the robot may advance or look to now: the next cusp ahead of
+    /// its progress, else the path's end.
+    fn horizon(&self) -> usize {
+        self.cusps
+            .iter()
+            .copied()
+            .find(|&c| c > self.nearest)
+            .unwrap_or(self.path.len() - 1)
+    }
+
+    /// How far along the path the robot has come: the index of the path point it was last
+    /// nearest to. It only grows (the search runs forward), so a path that passes a place
+    /// twice is not taken for done at its first passage.
+    pub fn progress(&self) -> usize {
+        self.nearest
+    }
+
     /// The length of the path still to drive from `pose`: to the path point nearest it (from
-    /// the last progress on), then along the path to its end, as Nav2's navigators report
-    /// `distance_remaining`.
+    /// the last progress on, up to the next cusp), then along the path to its end, as Nav2's
+    /// navigators report `distance_remaining`.
     pub fn remaining(&self, pose: &Pose) -> f64 {
         let dist = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
         let here = (pose.x, pose.y);
-        let ahead = &self.path[self.nearest..];
-        let nearest = (0..ahead.len())
-            .min_by(|&a, &b| dist(ahead[a], here).total_cmp(&dist(ahead[b], here)))
-            .unwrap_or(0);
-        let along: f64 = ahead[nearest..].windows(2).map(|w| dist(w[0], w[1])).sum();
-        dist(here, ahead[nearest]) + along
+        let nearest = (self.nearest..=self.horizon())
+            .min_by(|&a, &b| dist(self.path[a], here).total_cmp(&dist(self.path[b], here)))
+            .unwrap_or(self.nearest);
+        let along: f64 = self.path[nearest..]
+            .windows(2)
+            .map(|w| dist(w[0], w[1]))
+            .sum();
+        dist(here, self.path[nearest]) + along
     }
 
     /// The command for the robot at `pose` under `limits` (speed limits only: the caller applies
@@ -110,16 +157,24 @@ impl Follower {
             let w = (2.0 * err).clamp(-limits.max_angular, limits.max_angular);
             return (Twist2::new(0.0, w), Status::Rotating);
         }
-        // Progress: the nearest point, searching forward only (the path does not go backwards).
-        let window = (self.nearest..self.path.len()).take(200);
+        // Progress: the nearest point, searching forward only (the path does not go backwards)
+        // and not past the next cusp, which counts as reached within the goal tolerance.
+        let horizon = self.horizon();
+        let window = (self.nearest..=horizon).take(200);
         self.nearest = window
             .min_by(|&a, &b| dist(self.path[a]).total_cmp(&dist(self.path[b])))
             .unwrap_or(self.nearest);
-        let carrot = self.path[self.nearest..]
+        if dist(self.path[horizon]) <= p.goal_tolerance {
+            self.nearest = horizon;
+        }
+        // Where the robot is to stop next: the next cusp (to turn on the spot there), or the goal.
+        let horizon = self.horizon();
+        let stop_at = self.path[horizon];
+        let carrot = self.path[self.nearest..=horizon]
             .iter()
             .copied()
             .find(|&q| dist(q) >= p.lookahead)
-            .unwrap_or(goal);
+            .unwrap_or(stop_at);
         // The carrot in the robot's frame.
         let (dx, dy) = (carrot.0 - pose.x, carrot.1 - pose.y);
         let (s, c) = pose.yaw.sin_cos();
@@ -138,8 +193,9 @@ impl Follower {
         if radius < p.min_turn_radius {
             v *= radius / p.min_turn_radius;
         }
-        if d_goal < p.approach_distance {
-            v = v.min((limits.max_linear * d_goal / p.approach_distance).max(p.min_approach_speed));
+        let d_stop = dist(stop_at);
+        if d_stop < p.approach_distance {
+            v = v.min((limits.max_linear * d_stop / p.approach_distance).max(p.min_approach_speed));
         }
         // Keep the curve, slow down until the turn rate fits.
         if (v * curvature).abs() > limits.max_angular {
@@ -250,6 +306,48 @@ mod tests {
         let (pose, _, _, status) = drive(&path, std::f64::consts::PI, Pose::default());
         assert_eq!(status, Status::Arrived);
         assert!((pose.x + 3.0).abs() <= 0.1);
+    }
+
+    /// Out to (3, 0) and back beside the way out: the robot drives to the cusp before turning
+    /// round (pure pursuit alone turned back where the lookahead first reached the way back),
+    /// and the way left counts the whole way back too.
+    #[test]
+    fn drives_out_to_a_cusp_before_turning_back() {
+        let path = [(0.0, 0.0), (3.0, 0.0), (0.5, 0.3)];
+        let dense_path = dense(&path);
+        let f = Follower::new(FollowerParams::default(), dense_path.clone(), 0.0).unwrap();
+        assert_eq!(
+            f.cusps,
+            vec![60],
+            "the cusp at (3, 0), the 61st point at 0.05 m"
+        );
+        let whole = 3.0 + (2.5f64.powi(2) + 0.09).sqrt();
+        // Nearer the way back (0.09 m) than the way out (0.15 m), but not there yet.
+        let left = f.remaining(&Pose {
+            x: 1.0,
+            y: 0.15,
+            yaw: 0.0,
+        });
+        assert!((left - (0.15 + whole - 1.0)).abs() < 1e-6, "{left}");
+        let limits = TwistLimits::default();
+        let mut f = Follower::new(FollowerParams::default(), dense_path, 0.0).unwrap();
+        let mut car = Unicycle::new(Pose::default());
+        let (mut farthest, mut progress) = (0.0f64, 0);
+        for _ in 0..4000 {
+            let (cmd, status) = f.command(&car.pose, &limits);
+            assert!(f.progress() >= progress, "progress only grows");
+            progress = f.progress();
+            if status == Status::Arrived {
+                break;
+            }
+            car.step(limits.apply(cmd, car.twist, 0.05), 0.05);
+            farthest = farthest.max(car.pose.x);
+        }
+        assert!(
+            farthest >= 3.0 - 0.1,
+            "turned back at x = {farthest:.2}, short of the cusp"
+        );
+        assert!((car.pose.x - 0.5).hypot(car.pose.y - 0.3) <= 0.1);
     }
 
     proptest! {
