@@ -5,15 +5,20 @@ navigation time). Checked on the bundled map: a goal is reached (from /odom: wit
 follower's tolerance, stopped) and succeeds, its distance_remaining falling to about zero; a
 newer goal preempts a running one, which ends aborted while the newer one is driven to; a cancel
 ends the goal canceled and the car stops; a goal inside a cabinet is aborted with the planner's
-GOAL_OCCUPIED (206). /cmd_vel stays within 0.6 m/s and 0.4 rad/s throughout."""
+GOAL_OCCUPIED (206). /cmd_vel stays within 0.6 m/s and 0.4 rad/s throughout.
+
+NavigateThroughPoses the same way, as goThroughPoses sends it (`navigate_through_poses`): one
+path through every pose in order, published on /plan, driven to the last pose, with the
+feedback's number_of_poses_remaining counting the poses down; no poses is NO_VIAPOINTS_GIVEN
+(309), a pose in an unknown frame TF_ERROR (302) naming the pose."""
 import math
 
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Twist
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import Odometry, Path
 from rclpy.action import ActionClient
 
-from nav2_msgs.action import NavigateToPose
+from nav2_msgs.action import NavigateThroughPoses, NavigateToPose
 
 from conftest import ROOT, driving_rig, stamped
 
@@ -96,6 +101,61 @@ def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_doe
         b = blocked.result()
         assert b.status == GoalStatus.STATUS_ABORTED and b.result.error_code == 206, (b.status, b.result)
         assert b.result.error_msg
+
+        for c in cmds:
+            assert abs(c.linear.x) <= 0.6 + 1e-9 and abs(c.angular.z) <= 0.4 + 1e-9
+
+
+def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n"
+        f"    map_yaml: {MAP}\n    planner: any_angle\n"
+    )
+    with driving_rig(65, params, ROOT / "config" / "chassis.yaml", "navigate_through") as ros:
+        odom, cmds, plans = [], [], []
+        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
+        ros.node.create_subscription(Path, "/plan", plans.append, 10)
+        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+        client = ActionClient(ros.node, NavigateThroughPoses, "navigate_through_poses")
+        ros.spin_until(lambda: client.server_is_ready(), 45, "the navigate_through_poses action")
+
+        def send(poses, feedback=None):
+            goal = NavigateThroughPoses.Goal(poses=poses)
+            sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback is not None and feedback.append(f.feedback))
+            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the goal")
+            assert handle.accepted
+            result = handle.get_result_async()
+            ros.spin_until(result.done, 120, "the goal's result")
+            return result.result()
+
+        # Out to a via pose 2 m away, then back past the start's side to the goal: the one path
+        # goes through the via pose, and the car drives it there and back.
+        via, goal = (2.0, 0.6, 0.0), (0.8, 0.5, math.pi)
+        farthest = []
+        ros.node.create_subscription(Odometry, "/odom", lambda m: farthest.append(m.pose.pose.position.x), 100)
+        feedback = []
+        r = send([stamped(*via), stamped(*goal)], feedback)
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
+        ros.spin_for(0.5)
+        p = odom[-1].pose.pose.position
+        assert math.hypot(p.x - goal[0], p.y - goal[1]) <= 0.15 and abs(odom[-1].twist.twist.linear.x) < 1e-3
+        assert max(farthest) >= via[0] - 0.3, f"the car turned back at x = {max(farthest):.2f}"
+        path = plans[-1].poses
+        assert any(math.hypot(q.pose.position.x - via[0], q.pose.position.y - via[1]) < 1e-6 for q in path), \
+            "the published path passes the via pose"
+        remaining = [f.number_of_poses_remaining for f in feedback]
+        assert remaining[0] == 2 and remaining[-1] == 1 and remaining == sorted(remaining, reverse=True), remaining
+        assert feedback[-1].distance_remaining < 0.3 and feedback[0].distance_remaining > 2.5, \
+            [f.distance_remaining for f in feedback]
+
+        # Refused: no poses, and a pose in a frame the node does not know.
+        r = send([])
+        assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == 309, (r.status, r.result)
+        r = send([stamped(*via), stamped(*goal, frame="nowhere")])
+        assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == 302, (r.status, r.result)
+        assert r.result.error_msg.startswith("pose 1:"), r.result.error_msg
 
         for c in cmds:
             assert abs(c.linear.x) <= 0.6 + 1e-9 and abs(c.angular.z) <= 0.4 + 1e-9

@@ -399,10 +399,37 @@ pub mod nav2_msgs {
         pub number_of_recoveries: i16,
         pub distance_remaining: f32,
     }
+    /// nav2_msgs/action/NavigateThroughPoses goal (Jazzy: the poses as a PoseStamped array)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct NavigateThroughPosesGoal {
+        pub poses: Vec<PoseStamped>,
+        /// bt_navigator's behavior tree file; this node has none and ignores it.
+        pub behavior_tree: String,
+    }
+    /// nav2_msgs/action/NavigateThroughPoses result (Jazzy: NONE is its only constant, as
+    /// NavigateToPose's)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct NavigateThroughPosesResult {
+        pub error_code: u16,
+        pub error_msg: String,
+    }
+    /// nav2_msgs/action/NavigateThroughPoses feedback
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct NavigateThroughPosesFeedback {
+        pub current_pose: PoseStamped,
+        pub navigation_time: Duration,
+        pub estimated_time_remaining: Duration,
+        pub number_of_recoveries: i16,
+        pub distance_remaining: f32,
+        pub number_of_poses_remaining: i16,
+    }
     messages!(
         NavigateToPoseGoal,
         NavigateToPoseResult,
         NavigateToPoseFeedback,
+        NavigateThroughPosesGoal,
+        NavigateThroughPosesResult,
+        NavigateThroughPosesFeedback,
         FollowWaypointsGoal,
         FollowWaypointsResult,
         FollowWaypointsFeedback,

@@ -482,4 +482,38 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::NAVIGATE_TO_POSE_FEEDBACK,
     );
+    check(
+        "NavigateThroughPoses goal",
+        NavigateThroughPosesGoal {
+            poses: vec![stamped(1.0, 2.0), stamped(3.0, 4.0)],
+            behavior_tree: String::new(),
+        },
+        g::NAVIGATE_THROUGH_POSES_GOAL,
+    );
+    check(
+        "NavigateThroughPoses result",
+        NavigateThroughPosesResult {
+            error_code: 308,
+            error_msg: "no valid path".into(),
+        },
+        g::NAVIGATE_THROUGH_POSES_RESULT,
+    );
+    check(
+        "NavigateThroughPoses feedback",
+        NavigateThroughPosesFeedback {
+            current_pose: stamped(1.0, 2.0),
+            navigation_time: Duration {
+                sec: 3,
+                nanosec: 250,
+            },
+            estimated_time_remaining: Duration {
+                sec: 7,
+                nanosec: 500,
+            },
+            number_of_recoveries: 0,
+            distance_remaining: 4.5,
+            number_of_poses_remaining: 2,
+        },
+        g::NAVIGATE_THROUGH_POSES_FEEDBACK,
+    );
 }

@@ -14,7 +14,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose, FollowWaypoints, NavigateToPose
+from nav2_msgs.action import (ComputePathThroughPoses, ComputePathToPose, FollowWaypoints, NavigateThroughPoses,
+                              NavigateToPose)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import IsPathValid
 
@@ -118,6 +119,14 @@ def messages():
     f.navigation_time.sec, f.navigation_time.nanosec = 3, 250
     f.estimated_time_remaining.sec, f.estimated_time_remaining.nanosec = 7, 500
     out["NAVIGATE_TO_POSE_FEEDBACK"] = f
+    out["NAVIGATE_THROUGH_POSES_GOAL"] = NavigateThroughPoses.Goal(
+        poses=[pose_stamped(1.0, 2.0), pose_stamped(3.0, 4.0)], behavior_tree="")
+    out["NAVIGATE_THROUGH_POSES_RESULT"] = NavigateThroughPoses.Result(error_code=308, error_msg="no valid path")
+    f = NavigateThroughPoses.Feedback(current_pose=pose_stamped(1.0, 2.0), number_of_recoveries=0,
+                                      distance_remaining=4.5, number_of_poses_remaining=2)
+    f.navigation_time.sec, f.navigation_time.nanosec = 3, 250
+    f.estimated_time_remaining.sec, f.estimated_time_remaining.nanosec = 7, 500
+    out["NAVIGATE_THROUGH_POSES_FEEDBACK"] = f
     return out
 
 

@@ -8,15 +8,13 @@
 use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
 use crate::planning;
-use crate::result::{Failure, Outcome, ResultCode};
+use crate::result::{Failure, ResultCode};
 use crate::state::Shared;
 use log::{info, warn};
 use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav2_msgs::{
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
 };
-use patrol_msgs::nav_msgs::Path;
-use planner_core::geometry::Pose2;
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
 use ros2_client::Message;
 use std::sync::Arc;
@@ -68,8 +66,9 @@ impl PlannerGoal for ComputePathThroughPosesGoal {
     const NAME: &'static str = "compute_path_through_poses";
 }
 
-/// ComputePathThroughPoses' NO_VIAPOINTS_GIVEN.
-const NO_VIAPOINTS_GIVEN: u16 = 309;
+/// ComputePathThroughPoses' NO_VIAPOINTS_GIVEN (navigate_through_poses answers an empty goal
+/// with it too, as bt_navigator's planner call would).
+pub const NO_VIAPOINTS_GIVEN: u16 = 309;
 
 /// Nav2's code for a failure, in the action's range: UNKNOWN (base + 0) .. NO_VALID_PATH
 /// (base + 8). This node's own codes have no Nav2 number and map onto the nearest: a missing
@@ -112,7 +111,9 @@ pub async fn serve<G: PlannerGoal>(
     .await
 }
 
-/// Plans every leg of one goal and builds its result.
+/// Plans one goal, through each of its poses in order (planning.rs, planner-core's
+/// `solve_through`: one time budget for the whole request, as planner_server's), and builds its
+/// result.
 async fn run_goal<G: PlannerGoal>(
     s: &Arc<Shared>,
     o: &Outputs,
@@ -148,7 +149,7 @@ async fn run_goal<G: PlannerGoal>(
             Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
         }
     }
-    let mut from = if goal.use_start() {
+    let from = if goal.use_start() {
         match s.pose_in_global(goal.start()) {
             Ok(p) => p,
             Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
@@ -164,63 +165,44 @@ async fn run_goal<G: PlannerGoal>(
         }
     };
     let tolerance = s.live.read().expect("lock").tolerance;
-    let mut waypoints = Vec::new();
-    let mut last_outcome: Option<Outcome> = None;
-    let mut resolution = f64::INFINITY;
-    for &to in &targets {
-        let stop_leg = stop.clone();
-        let outcome = planning::plan_off_thread(s, from, to, tolerance, planner, move || {
-            stop_leg.requested()
-        })
-        .await;
-        o.diagnose(s, &outcome).await;
-        match &outcome.result {
-            Ok((plan, _)) => {
-                // Legs join end to start: the next leg starts where this one ended.
-                let skip = usize::from(!waypoints.is_empty());
-                waypoints.extend(plan.waypoints.iter().skip(skip).copied());
-                resolution = resolution.min(plan.resolution);
-                from = Pose2::new(plan.goal.x, plan.goal.y, to.yaw);
-            }
-            Err(f) if f.code == ResultCode::Cancelled => {
-                let why = stop.reason();
-                info!("{}: {why}", G::NAME);
-                return (
-                    stop.end_status(),
-                    ComputePathResult {
-                        error_code: if stop.preempted() { G::CODE_BASE } else { 0 },
-                        error_msg: why.into(),
-                        planning_time: crate::convert::duration_msg(t0.elapsed()),
-                        ..ComputePathResult::default()
-                    },
-                );
-            }
-            Err(Failure { code, message }) => {
-                return failed(nav2_code(*code, G::CODE_BASE), message.clone())
-            }
+    let stop_plan = stop.clone();
+    let outcome = planning::plan_off_thread(s, from, targets, tolerance, planner, move || {
+        stop_plan.requested()
+    })
+    .await;
+    match &outcome.result {
+        Err(f) if f.code == ResultCode::Cancelled => {
+            o.diagnose(s, &outcome).await;
+            let why = stop.reason();
+            info!("{}: {why}", G::NAME);
+            (
+                stop.end_status(),
+                ComputePathResult {
+                    error_code: if stop.preempted() { G::CODE_BASE } else { 0 },
+                    error_msg: why.into(),
+                    planning_time: crate::convert::duration_msg(t0.elapsed()),
+                    ..ComputePathResult::default()
+                },
+            )
         }
-        last_outcome = Some(outcome);
-    }
-    let goal_yaw = targets.last().map_or(0.0, |p| p.yaw);
-    let goal_yaw = crate::outputs::final_yaw(
-        s.params.use_final_approach_orientation,
-        &waypoints,
-        goal_yaw,
-    );
-    let path: Path = crate::convert::path_msg(&waypoints, goal_yaw, resolution, o.header(s));
-    // The joined path also goes out on /plan, as planner_server publishes every plan.
-    if let Some(Ok((plan, _))) = last_outcome.as_ref().map(|o| &o.result) {
-        o.publish_plan(s, path.clone(), plan).await;
-    }
-    (
-        GoalEndStatus::Succeeded,
-        ComputePathResult {
-            path,
-            planning_time: crate::convert::duration_msg(t0.elapsed()),
-            error_code: 0,
-            error_msg: String::new(),
+        Err(Failure { code, message }) => {
+            o.diagnose(s, &outcome).await;
+            failed(nav2_code(*code, G::CODE_BASE), message.clone())
+        }
+        // The path also goes out on /plan, as planner_server publishes every plan.
+        Ok(_) => match o.publish(s, &outcome).await {
+            Some(path) => (
+                GoalEndStatus::Succeeded,
+                ComputePathResult {
+                    path,
+                    planning_time: crate::convert::duration_msg(t0.elapsed()),
+                    error_code: 0,
+                    error_msg: String::new(),
+                },
+            ),
+            None => failed(G::CODE_BASE, "the plan could not be published".into()),
         },
-    )
+    }
 }
 
 /// The indices of the poses of `path` (map frame, metres) the robot cannot be at or reach from

@@ -4,13 +4,15 @@
 //! end and time limit) until the robot arrives, a stop is asked for (cancel, preemption), a newer
 //! goal takes the robot (superseded: that goal's drive goes on), the node is deactivated
 //! (lifecycle: the robot stops), or the time to drive it runs out. `navigate_to_pose` is one
-//! drive; `follow_waypoints` one per waypoint.
+//! drive; `navigate_through_poses` one through all its poses, as Nav2's through-poses tree
+//! plans one path through them and drives it without stopping at each (a replan goes through
+//! the poses not yet passed); `follow_waypoints` one per waypoint, stopping at each.
 
 use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
-use crate::state::{path_length, Shared};
+use crate::state::{path_length, Handover, Shared};
 use planner_core::geometry::Pose2;
 use std::future::Future;
 use std::sync::Arc;
@@ -43,19 +45,21 @@ pub struct Progress {
     pub remaining_m: f64,
     /// The robot's speed over the last tick (m/s).
     pub speed: f64,
+    /// The poses still ahead, the goal included, as Nav2's `number_of_poses_remaining`.
+    pub poses_remaining: usize,
 }
 
 /// How often a drive checks on the follower and reports its progress.
 const TICK: Duration = Duration::from_millis(100);
 
-/// Drives to `to` (global frame) for goal `mine` (its claim on the robot,
-/// [`Shared::take_robot`]: a patrol takes it once for all its legs), calling `progress` each
-/// tick while the plan is followed. Callers check `follow_plan` first, before the goal takes
-/// the robot.
+/// Drives through `goals` (global frame; via poses in order, then the goal, which the robot ends
+/// facing) for goal `mine` (its claim on the robot, [`Shared::take_robot`]: a patrol takes it
+/// once for all its legs), calling `progress` each tick while the plan is followed. Callers
+/// check `follow_plan` first, before the goal takes the robot, and give at least one pose.
 pub async fn drive_to<P, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,
-    to: Pose2,
+    goals: &[Pose2],
     mine: u64,
     stop: &GoalStop,
     mut progress: P,
@@ -88,8 +92,10 @@ where
             .map(DriveEnd::NoPlan)
             .or_else(|| superseded().then_some(DriveEnd::Superseded))
     };
-    let outcome = planning::plan_off_thread(s, from, to, tolerance, None, stop_plan).await;
-    let Some(path) = o.publish(s, &outcome).await else {
+    let outcome =
+        planning::plan_off_thread(s, from, goals.to_vec(), tolerance, None, stop_plan).await;
+    let published = o.publish(s, &outcome).await;
+    let (Some(path), Ok((plan, goal_yaw))) = (published, &outcome.result) else {
         // No plan: the robot does not go on along an older goal's path.
         s.stop_following(mine);
         if stop.requested() {
@@ -98,24 +104,22 @@ where
         if let Some(end) = taken() {
             return end;
         }
-        let why = outcome.result.err().unwrap_or_else(|| {
+        let why = outcome.result.as_ref().err().cloned().unwrap_or_else(|| {
             Failure::new(ResultCode::Unknown, "the plan could not be published")
         });
         return DriveEnd::NoPlan(why);
     };
-    let points: Vec<(f64, f64)> = path
-        .poses
-        .iter()
-        .map(|q| (q.pose.position.x, q.pose.position.y))
-        .collect();
-    if !s.follow(mine, to, points, to.yaw) {
+    if !s.follow(
+        mine,
+        Handover::new(goals.to_vec(), &path, &plan.via, *goal_yaw),
+    ) {
         return taken().unwrap_or(DriveEnd::Superseded);
     }
     // The plan being driven: the first, then each replan around a new map (inputs.rs), which
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
-    let mut plan = Plan::default();
+    let mut driven = Plan::default();
     if let Some(first) = s.followed.lock().expect("lock").as_ref() {
-        plan.update(&first.path, s.params.twist_limits.max_linear);
+        driven.update(&first.path, s.params.twist_limits.max_linear);
     }
     loop {
         tokio::time::sleep(TICK).await;
@@ -131,35 +135,42 @@ where
             return end;
         }
         let robot = s.odom.read().expect("lock").map(|(p, _)| p);
-        // The follower's own remaining length (it may have been replaced by a replan).
-        let remaining = {
+        // The follower's own remaining length and poses (it may have been replaced by a
+        // replan).
+        let (remaining, poses_remaining) = {
             let follower = s.follower.lock().expect("lock");
             let Some(f) = follower.as_ref() else { break };
-            if let Some(now) = s.followed.lock().expect("lock").as_ref() {
-                plan.update(&now.path, s.params.twist_limits.max_linear);
+            let followed = s.followed.lock().expect("lock");
+            if let Some(now) = followed.as_ref() {
+                driven.update(&now.path, s.params.twist_limits.max_linear);
             }
-            robot.map(|p| {
+            let poses = followed
+                .as_ref()
+                .map_or(1, |now| now.goals_ahead(f.progress()).len());
+            let remaining = robot.map(|p| {
                 f.remaining(&chassis::Pose {
                     x: p.x,
                     y: p.y,
                     yaw: p.yaw,
                 })
-            })
+            });
+            (remaining, poses)
         };
         if let (Some(robot), Some(remaining_m)) = (robot, remaining) {
             let now = Instant::now();
-            let speed = plan.last.map_or(0.0, |(p, t)| {
+            let speed = driven.last.map_or(0.0, |(p, t)| {
                 (robot.x - p.x).hypot(robot.y - p.y) / (now - t).as_secs_f64().max(1e-3)
             });
-            plan.last = Some((robot, now));
+            driven.last = Some((robot, now));
             progress(Progress {
                 robot,
                 remaining_m,
                 speed,
+                poses_remaining,
             })
             .await;
         }
-        if plan.deadline.is_some_and(|d| Instant::now() > d) {
+        if driven.deadline.is_some_and(|d| Instant::now() > d) {
             s.stop_following(mine);
             break;
         }
@@ -173,7 +184,7 @@ where
         return DriveEnd::NoPlan(f);
     }
     let at = s.odom.read().expect("lock").map(|(p, _)| p);
-    let reached = at.zip(plan.end).is_some_and(|(p, end)| {
+    let reached = at.zip(driven.end).is_some_and(|(p, end)| {
         (p.x - end.0).hypot(p.y - end.1) <= 2.0 * s.params.follower.goal_tolerance
     });
     if reached {

@@ -7,7 +7,7 @@ use crate::convert;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{path_length, Followed, GoalRequest, GoalSlot, MapState, Shared};
+use crate::state::{path_length, GoalRequest, GoalSlot, MapState, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
@@ -118,9 +118,10 @@ pub async fn receive_maps(
 }
 
 /// After a new map (or a new inflation of it: `why`): the part of the followed path still ahead
-/// of the robot (from the pose nearest it) is checked against `map` with `is_path_valid`'s rule,
-/// once per grid ([`Shared::checked_grid`]); if the map blocks it, its goal goes back into the
-/// goal slot and is planned again from where the robot is.
+/// of the robot (from the path point it has come to) is checked against `map` with
+/// `is_path_valid`'s rule, once per grid ([`Shared::checked_grid`]); if the map blocks it, its
+/// goal goes back into the goal slot, with the via poses not yet passed
+/// (`navigate_through_poses`), and is planned again from where the robot is.
 fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapState>, why: &str) {
     {
         let mut checked = s.checked_grid.lock().expect("lock");
@@ -130,19 +131,21 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
         }
         *checked = this;
     }
-    let Some(Followed { owner, goal, path }) = s.followed.lock().expect("lock").clone() else {
+    // How far along its path the robot has come (the follower's progress, which only grows,
+    // so a path that passes a place twice is judged from the right passage), with the path:
+    // both under their locks, in the node's lock order.
+    let (nearest, followed) = {
+        let follower = s.follower.lock().expect("lock");
+        let followed = s.followed.lock().expect("lock");
+        (
+            follower.as_ref().map_or(0, |f| f.progress()),
+            followed.clone(),
+        )
+    };
+    let Some(followed) = followed else {
         return;
     };
-    let robot = s.odom.read().expect("lock").map(|(p, _)| (p.x, p.y));
-    let nearest = robot.map_or(0, |(x, y)| {
-        path.iter()
-            .enumerate()
-            .min_by(|a, b| {
-                let d = |p: &(f64, f64)| (p.0 - x).hypot(p.1 - y);
-                d(a.1).total_cmp(&d(b.1))
-            })
-            .map_or(0, |(i, _)| i)
-    });
+    let path = &followed.path;
     // The robot's own pose may be inside the new map's inflated band; the path ahead must not be.
     let ahead = &path[(nearest + 1).min(path.len())..];
     let invalid = crate::actions::invalid_poses(&map.grid, ahead);
@@ -155,11 +158,12 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
         // Planned again for the goal that has the robot, as its own: a drive of an action
         // (drive.rs) goes on watching the new path, and a newer goal is not overridden.
         // Checked under the slot's own lock, so a newer goal sent meanwhile is not overwritten.
+        let owner = followed.owner;
         slot.send_if_modified(|v| {
             s.owns_robot(owner) && {
                 *v = Some(GoalRequest {
                     owner,
-                    goal,
+                    goals: followed.goals_ahead(nearest),
                     replaces: Some(path.clone()),
                 });
                 true
@@ -299,7 +303,7 @@ pub async fn receive_goals(
                 // Fails only when the planning task has ended, i.e. during shutdown.
                 let _ = slot.send(Some(GoalRequest {
                     owner,
-                    goal,
+                    goals: vec![goal],
                     replaces: None,
                 }));
             }

@@ -1,74 +1,183 @@
-//! Nav2's `navigate_to_pose` action (nav2_msgs/NavigateToPose, Jazzy), as bt_navigator serves it
-//! and nav2_simple_commander's `goToPose` sends it: one drive (drive.rs) from where the robot is
-//! to the goal, with bt_navigator's feedback each tick (the robot's pose, the time since the goal
-//! arrived, the path length still to drive, the time remaining at the current speed, and no
-//! recoveries: the node has none). A newer goal preempts the running one (aborted), a client's
-//! cancel stops the robot (canceled). A failure carries the code of the step that failed, as
-//! bt_navigator reports it: the planner's (ComputePathToPose's 2xx) or the controller's
-//! FAILED_TO_MAKE_PROGRESS (105) for a plan not driven within its time. `behavior_tree` names
-//! one of bt_navigator's trees; this node has none, and says so in its log.
+//! Nav2's navigate actions (nav2_msgs, Jazzy), as bt_navigator serves them and
+//! nav2_simple_commander sends them: `navigate_to_pose` (`goToPose`), one drive (drive.rs) from
+//! where the robot is to the goal, and `navigate_through_poses` (`goThroughPoses`), one drive
+//! through every pose in order, planned as one path (ComputePathThroughPoses) and driven without
+//! stopping at the poses on the way, as Nav2's through-poses tree does. Feedback each tick, as
+//! bt_navigator's: the robot's pose, the time since the goal arrived, the path length still to
+//! drive, the time remaining at the current speed, no recoveries (the node has none), and, for
+//! through-poses, the poses still ahead. A newer goal of the same action preempts the running
+//! one (aborted), a client's cancel stops the robot (canceled). A failure carries the code of
+//! the step that failed, as bt_navigator reports it: the planner's (ComputePathToPose's 2xx,
+//! ComputePathThroughPoses' 3xx) or the controller's FAILED_TO_MAKE_PROGRESS (105) for a plan
+//! not driven within its time. `behavior_tree` names one of bt_navigator's trees; this node has
+//! none, and says so in its log.
 
 use crate::action_server::{Feedback, GoalStop};
-use crate::actions::nav2_code;
+use crate::actions::{nav2_code, NO_VIAPOINTS_GIVEN};
 use crate::convert::{duration_msg, pose_stamped};
 use crate::drive::{drive_to, DriveEnd, Progress};
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use log::{info, warn};
-use patrol_msgs::nav2_msgs::{NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult};
+use patrol_msgs::builtin_interfaces::Duration as DurationMsg;
+use patrol_msgs::geometry_msgs::PoseStamped;
+use patrol_msgs::nav2_msgs::{
+    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
+    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult,
+};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use ros2_client::Message;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-pub type Server =
-    AsyncActionServer<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>;
 
 /// FollowPath's FAILED_TO_MAKE_PROGRESS: the plan was followed but not to its end in time.
 const FAILED_TO_MAKE_PROGRESS: u16 = 105;
 
-/// Serves `navigate_to_pose` until the node stops (the door: action_server.rs).
-pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
-    crate::action_server::serve(s, o, "navigate_to_pose", server, navigate).await
+/// One tick of a navigation's feedback, whichever action it is for.
+pub struct NavigationFeedback {
+    pub current_pose: PoseStamped,
+    pub navigation_time: DurationMsg,
+    pub estimated_time_remaining: DurationMsg,
+    pub distance_remaining: f32,
+    /// The poses still ahead, the goal included.
+    pub poses_remaining: usize,
 }
 
-/// One goal: carried into the global frame, planned to, driven to.
-async fn navigate(
+/// What the two navigate actions' goals have in common (as actions.rs's `PlannerGoal` is for
+/// the planner actions): their poses, their tree, and how their result and feedback are made.
+pub trait NavigateGoal: Message + Clone + Send + Sync + 'static {
+    type Result: Message + Clone + Send + Sync + 'static;
+    type Feedback: Message + Send + Sync + 'static;
+    /// The action's name, for logs.
+    const NAME: &'static str;
+    /// The error-code base of the planner action its tree calls: 200 (ComputePathToPose) or
+    /// 300 (ComputePathThroughPoses).
+    const CODE_BASE: u16;
+    /// The poses to drive through in order; the last is the goal.
+    fn poses(&self) -> &[PoseStamped];
+    fn behavior_tree(&self) -> &str;
+    fn result(error_code: u16, error_msg: String) -> Self::Result;
+    fn feedback(f: NavigationFeedback) -> Self::Feedback;
+}
+
+impl NavigateGoal for NavigateToPoseGoal {
+    type Result = NavigateToPoseResult;
+    type Feedback = NavigateToPoseFeedback;
+    const NAME: &'static str = "navigate_to_pose";
+    const CODE_BASE: u16 = 200;
+    fn poses(&self) -> &[PoseStamped] {
+        std::slice::from_ref(&self.pose)
+    }
+    fn behavior_tree(&self) -> &str {
+        &self.behavior_tree
+    }
+    fn result(error_code: u16, error_msg: String) -> Self::Result {
+        NavigateToPoseResult {
+            error_code,
+            error_msg,
+        }
+    }
+    fn feedback(f: NavigationFeedback) -> Self::Feedback {
+        NavigateToPoseFeedback {
+            current_pose: f.current_pose,
+            navigation_time: f.navigation_time,
+            estimated_time_remaining: f.estimated_time_remaining,
+            number_of_recoveries: 0,
+            distance_remaining: f.distance_remaining,
+        }
+    }
+}
+
+impl NavigateGoal for NavigateThroughPosesGoal {
+    type Result = NavigateThroughPosesResult;
+    type Feedback = NavigateThroughPosesFeedback;
+    const NAME: &'static str = "navigate_through_poses";
+    const CODE_BASE: u16 = 300;
+    fn poses(&self) -> &[PoseStamped] {
+        &self.poses
+    }
+    fn behavior_tree(&self) -> &str {
+        &self.behavior_tree
+    }
+    fn result(error_code: u16, error_msg: String) -> Self::Result {
+        NavigateThroughPosesResult {
+            error_code,
+            error_msg,
+        }
+    }
+    fn feedback(f: NavigationFeedback) -> Self::Feedback {
+        NavigateThroughPosesFeedback {
+            current_pose: f.current_pose,
+            navigation_time: f.navigation_time,
+            estimated_time_remaining: f.estimated_time_remaining,
+            number_of_recoveries: 0,
+            distance_remaining: f.distance_remaining,
+            number_of_poses_remaining: i16::try_from(f.poses_remaining).unwrap_or(i16::MAX),
+        }
+    }
+}
+
+/// Serves one navigate action until the node stops (the door: action_server.rs).
+pub async fn serve<G: NavigateGoal>(
     s: Arc<Shared>,
     o: Outputs,
-    goal: NavigateToPoseGoal,
+    server: AsyncActionServer<G, G::Result, G::Feedback>,
+) {
+    crate::action_server::serve(s, o, G::NAME, server, navigate::<G>).await
+}
+
+/// One goal: its poses carried into the global frame, planned through, driven to.
+async fn navigate<G: NavigateGoal>(
+    s: Arc<Shared>,
+    o: Outputs,
+    goal: G,
     stop: GoalStop,
-    feedback: Feedback<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>,
-) -> (GoalEndStatus, NavigateToPoseResult) {
+    feedback: Feedback<G, G::Result, G::Feedback>,
+) -> (GoalEndStatus, G::Result) {
     let (s, o, stop) = (&s, &o, &stop);
+    let name = G::NAME;
     let failed = |error_code: u16, error_msg: String| {
-        warn!("navigate_to_pose: {error_code}: {error_msg}");
-        (
-            GoalEndStatus::Aborted,
-            NavigateToPoseResult {
-                error_code,
-                error_msg,
-            },
-        )
+        warn!("{name}: {error_code}: {error_msg}");
+        (GoalEndStatus::Aborted, G::result(error_code, error_msg))
     };
-    if !goal.behavior_tree.is_empty() {
+    if !goal.behavior_tree().is_empty() {
         info!(
-            "navigate_to_pose: behavior_tree `{}` ignored: this node plans and follows without \
-             behavior trees",
-            goal.behavior_tree
+            "{name}: behavior_tree `{}` ignored: this node plans and follows without behavior \
+             trees",
+            goal.behavior_tree()
         );
     }
     // Checked before the goal takes the robot, so a plan for /goal_pose is not cancelled for it.
     if !s.params.follow_plan {
         return failed(
-            200,
+            G::CODE_BASE,
             "follow_plan is false: this node plans only, and leaves driving to another controller"
                 .into(),
         );
     }
-    let to = match s.pose_in_global(&goal.pose) {
-        Ok(p) => p,
-        Err(f) => return failed(nav2_code(f.code, 200), f.message),
-    };
+    if goal.poses().is_empty() {
+        return failed(NO_VIAPOINTS_GIVEN, "no poses given".into());
+    }
+    // Every pose is carried into the global frame once, as the goal arrives: a pose in
+    // `base_link` is relative to where the robot is now.
+    let mut goals = Vec::with_capacity(goal.poses().len());
+    for (i, pose) in goal.poses().iter().enumerate() {
+        match s.pose_in_global(pose) {
+            Ok(p) => goals.push(p),
+            Err(f) => {
+                let which = if goal.poses().len() > 1 {
+                    format!("pose {i}: ")
+                } else {
+                    String::new()
+                };
+                return failed(
+                    nav2_code(f.code, G::CODE_BASE),
+                    format!("{which}{}", f.message),
+                );
+            }
+        }
+    }
+    let to = *goals.last().expect("checked non-empty");
     let started = Instant::now();
     let header = o.header(s);
     let progress = |p: Progress| {
@@ -80,41 +189,35 @@ async fn navigate(
         } else {
             Duration::ZERO
         };
-        let message = NavigateToPoseFeedback {
+        let message = G::feedback(NavigationFeedback {
             current_pose: pose_stamped(p.robot, header),
             navigation_time: duration_msg(started.elapsed()),
             estimated_time_remaining: duration_msg(eta),
-            number_of_recoveries: 0,
             distance_remaining: p.remaining_m as f32,
-        };
+            poses_remaining: p.poses_remaining,
+        });
         async move { feedback.send(message).await }
     };
-    match drive_to(s, o, to, s.take_robot(), stop, progress).await {
+    match drive_to(s, o, &goals, s.take_robot(), stop, progress).await {
         DriveEnd::Reached => {
             info!(
-                "navigate_to_pose: reached ({:.2}, {:.2}) in {:.1} s",
+                "{name}: reached ({:.2}, {:.2}) in {:.1} s",
                 to.x,
                 to.y,
                 started.elapsed().as_secs_f64()
             );
-            (GoalEndStatus::Succeeded, NavigateToPoseResult::default())
+            (GoalEndStatus::Succeeded, G::result(0, String::new()))
         }
         DriveEnd::Stopped => {
             let why = stop.reason();
-            info!("navigate_to_pose: {why}");
-            (
-                stop.end_status(),
-                NavigateToPoseResult {
-                    error_code: 0,
-                    error_msg: why.into(),
-                },
-            )
+            info!("{name}: {why}");
+            (stop.end_status(), G::result(0, why.into()))
         }
         DriveEnd::Superseded => failed(
             0,
             "preempted by a newer goal on /goal_pose or another action".into(),
         ),
-        DriveEnd::NoPlan(f) => failed(nav2_code(f.code, 200), f.message),
+        DriveEnd::NoPlan(f) => failed(nav2_code(f.code, G::CODE_BASE), f.message),
         DriveEnd::NotReached => failed(
             FAILED_TO_MAKE_PROGRESS,
             "the robot did not reach the end of its plan within the time to drive it".into(),

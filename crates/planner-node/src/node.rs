@@ -44,7 +44,8 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
     FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
-    IsPathValidResponse, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult,
+    IsPathValidResponse, NavigateThroughPosesFeedback, NavigateThroughPosesGoal,
+    NavigateThroughPosesResult, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -303,6 +304,16 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         &ActionTypeName::new("nav2_msgs", "NavigateToPose"),
         action_qos(),
     )?);
+    let navigate_through_poses = AsyncActionServer::new(node.create_action_server::<
+        NavigateThroughPosesGoal,
+        NavigateThroughPosesResult,
+        NavigateThroughPosesFeedback,
+    >(
+        ServiceMapping::Enhanced,
+        &naming.name("navigate_through_poses")?,
+        &ActionTypeName::new("nav2_msgs", "NavigateThroughPoses"),
+        action_qos(),
+    )?);
     let follow_waypoints = AsyncActionServer::new(node.create_action_server::<
         FollowWaypointsGoal,
         FollowWaypointsResult,
@@ -526,6 +537,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         shared.clone(),
         out.clone(),
         navigate_to_pose,
+    ));
+    tasks.spawn(crate::navigate::serve(
+        shared.clone(),
+        out.clone(),
+        navigate_through_poses,
     ));
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),

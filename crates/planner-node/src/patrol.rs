@@ -195,7 +195,16 @@ async fn patrol(
                 goal: goal.poses[i].clone(),
                 error_code: code,
             };
-            match drive_to(s, o, poses[i], mine, stop, |_| async {}).await {
+            match drive_to(
+                s,
+                o,
+                std::slice::from_ref(&poses[i]),
+                mine,
+                stop,
+                |_| async {},
+            )
+            .await
+            {
                 DriveEnd::Reached => {}
                 DriveEnd::Stopped => return (stop.end_status(), result),
                 DriveEnd::Superseded => return superseded(result, i),

@@ -4,13 +4,13 @@
 
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{GoalRequest, GoalSlot, MapState, Shared};
+use crate::state::{GoalRequest, GoalSlot, Handover, MapState, Shared};
 use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::GridMap;
-use planner_core::planner::{Interrupt, PlanContext, PlannerRng, Query};
+use planner_core::planner::{Interrupt, PlanContext, PlannerRng};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use ros2_client::Server;
@@ -21,8 +21,10 @@ use tokio::sync::watch;
 /// One planning request, whatever it came from (a goal, GetPlan, an action).
 pub struct Request<'a> {
     pub start: Pose2,
-    pub goal: Pose2,
-    /// How far (m) an occupied goal may move to a free cell.
+    /// The poses to pass through in order, the last being the goal (one for most requests;
+    /// `compute_path_through_poses` and `navigate_through_poses` send more).
+    pub goals: &'a [Pose2],
+    /// How far (m) an occupied goal (or via pose) may move to a free cell.
     pub tolerance: f64,
     /// The planner to use (an action's `planner_id`); `None`: the `planner` parameter.
     pub planner: Option<PlannerName>,
@@ -34,7 +36,7 @@ pub struct Request<'a> {
 pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     let Request {
         start,
-        goal,
+        goals,
         tolerance,
         planner,
         cancelled,
@@ -46,6 +48,9 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     if let Some(refusal) = s.refusal() {
         return failed(refusal);
     }
+    let Some(goal) = goals.last().copied() else {
+        return failed(Failure::new(ResultCode::InvalidInput, "no goal given"));
+    };
     let Some(map) = s.current_map() else {
         return failed(Failure::new(
             ResultCode::NoMap,
@@ -74,15 +79,13 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     };
     let mut rng = PlannerRng::seed_from_u64(seed);
     let mut ctx = PlanContext::new(&mut rng, &interrupt);
-    let query = Query {
-        start: start.position(),
-        goal: Point2::new(goal.x, goal.y),
-        tolerance,
-    };
-    let result = planner_core::solve(
+    let points: Vec<Point2> = goals.iter().map(|g| Point2::new(g.x, g.y)).collect();
+    let result = planner_core::solve_through(
         planner.as_ref(),
         &map.grid,
-        &query,
+        start.position(),
+        &points,
+        tolerance,
         config.solve_options(),
         &mut ctx,
     );
@@ -183,15 +186,16 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
     } else {
         s.live.read().expect("lock").tolerance
     };
-    plan_off_thread(s, start, goal, tolerance, None, || false).await
+    plan_off_thread(s, start, vec![goal], tolerance, None, || false).await
 }
 
-/// [`plan`] on tokio's blocking pool, so the node keeps receiving meanwhile; a panic in the
-/// planner becomes an UNKNOWN answer (see [`task_failure`]).
+/// [`plan`] from `start` through `goals` (the last is the goal) on tokio's blocking pool, so
+/// the node keeps receiving meanwhile; a panic in the planner becomes an UNKNOWN answer (see
+/// [`task_failure`]).
 pub async fn plan_off_thread(
     s: &Arc<Shared>,
     start: Pose2,
-    goal: Pose2,
+    goals: Vec<Pose2>,
     tolerance: f64,
     planner: Option<PlannerName>,
     cancelled: impl Fn() -> bool + Send + Sync + 'static,
@@ -203,7 +207,7 @@ pub async fn plan_off_thread(
             &s2,
             Request {
                 start,
-                goal,
+                goals: &goals,
                 tolerance,
                 planner,
                 cancelled: &cancelled,
@@ -241,7 +245,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
     while slot.changed().await.is_ok() {
         let Some(GoalRequest {
             owner: id,
-            goal,
+            goals,
             replaces,
         }) = slot.borrow_and_update().clone()
         else {
@@ -263,7 +267,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         let tolerance = s.live.read().expect("lock").tolerance;
         let s2 = s.clone();
         let newer_goal = move || !s2.owns_robot(id);
-        let outcome = plan_off_thread(&s, start, goal, tolerance, None, newer_goal).await;
+        let outcome = plan_off_thread(&s, start, goals.clone(), tolerance, None, newer_goal).await;
         if matches!(&outcome.result, Err(f) if f.code == ResultCode::Cancelled) {
             info!("plan for goal {id} cancelled by a newer goal");
             continue;
@@ -274,16 +278,12 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         // still has the robot: a newer goal, or an action's drive, may have taken it meanwhile.
         if s.params.follow_plan {
             match (path, &outcome.result) {
-                (Some(p), Ok((_, goal_yaw))) => {
-                    let pts = p
-                        .poses
-                        .iter()
-                        .map(|q| (q.pose.position.x, q.pose.position.y))
-                        .collect();
+                (Some(p), Ok((plan, goal_yaw))) => {
+                    let handover = Handover::new(goals, &p, &plan.via, *goal_yaw);
                     if let Some(replaced) = &replaces {
-                        s.refollow(id, replaced, goal, pts, *goal_yaw);
+                        s.refollow(id, replaced, handover);
                     } else {
-                        s.follow(id, goal, pts, *goal_yaw);
+                        s.follow(id, handover);
                     }
                 }
                 (_, result) if replaces.is_some() => {

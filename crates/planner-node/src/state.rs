@@ -6,8 +6,9 @@ use crate::localization::{compose, KnownFrames, Localization};
 use crate::result::{Failure, ResultCode};
 use chassis::follower::Follower;
 use patrol_msgs::geometry_msgs::PoseStamped;
+use patrol_msgs::nav_msgs::Path;
 use planner_core::config::PlannerConfig;
-use planner_core::geometry::Pose2;
+use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
 use planner_core::params::ParamError;
 use planner_core::PlannerName;
@@ -261,10 +262,10 @@ impl Shared {
         self.goals.load(std::sync::atomic::Ordering::SeqCst) == owner
     }
 
-    /// Hands the robot `path` (map metres) to follow to `goal`, ending with heading `goal_yaw`,
-    /// if `owner` still has the robot and the node is active; returns whether it did.
-    pub fn follow(&self, owner: u64, goal: Pose2, path: Vec<(f64, f64)>, goal_yaw: f64) -> bool {
-        self.install_follower(owner, Some((goal, path, goal_yaw)), Install::NewGoal)
+    /// Hands the robot a plan to follow (`handover`), if `owner` still has the robot and the
+    /// node is active; returns whether it did.
+    pub fn follow(&self, owner: u64, handover: Handover) -> bool {
+        self.install_follower(owner, Some(handover), Install::NewGoal)
     }
 
     /// As [`Shared::follow`], for a replan of the path `replaces` around a new map: only while
@@ -275,12 +276,9 @@ impl Shared {
         &self,
         owner: u64,
         replaces: &Arc<Vec<(f64, f64)>>,
-        goal: Pose2,
-        path: Vec<(f64, f64)>,
-        goal_yaw: f64,
+        handover: Handover,
     ) -> bool {
-        let how = Install::Replan(replaces, None);
-        self.install_follower(owner, Some((goal, path, goal_yaw)), how)
+        self.install_follower(owner, Some(handover), Install::Replan(replaces, None))
     }
 
     /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
@@ -315,10 +313,23 @@ impl Shared {
     fn install_follower(&self, owner: u64, next: Option<Handover>, how: Install) -> bool {
         // Made before the locks are taken: they are held only to swap it in.
         let next = match next {
-            Some((goal, path, goal_yaw)) => {
+            Some(Handover {
+                goals,
+                via_at,
+                path,
+                goal_yaw,
+            }) => {
                 let path = Arc::new(path);
                 match Follower::new(self.params.follower, path.to_vec(), goal_yaw) {
-                    Some(f) => Some((f, Followed { owner, goal, path })),
+                    Some(f) => Some((
+                        f,
+                        Followed {
+                            owner,
+                            goals,
+                            via_at,
+                            path,
+                        },
+                    )),
                     None => return false,
                 }
             }
@@ -376,8 +387,53 @@ pub fn path_length(points: &[(f64, f64)]) -> f64 {
         .sum()
 }
 
-/// A path handed to the follower: its goal, the path (map metres), the heading to end with.
-type Handover = (Pose2, Vec<(f64, f64)>, f64);
+/// A plan handed to the follower.
+#[derive(Clone, Debug)]
+pub struct Handover {
+    /// Where the plan goes: its via poses in order, then its goal (global frame).
+    pub goals: Vec<Pose2>,
+    /// Where the path passes each via pose: an index into `path`.
+    pub via_at: Vec<usize>,
+    /// The path (map metres), as published.
+    pub path: Vec<(f64, f64)>,
+    /// The heading to end with.
+    pub goal_yaw: f64,
+}
+
+impl Handover {
+    /// The plan published as `path` for `goals` (via poses, then the goal), whose planner
+    /// passed the via poses at `via` (each the pose, or the free cell it was moved to: one of
+    /// the plan's vertices, which the published path keeps exactly).
+    pub fn new(goals: Vec<Pose2>, path: &Path, via: &[Point2], goal_yaw: f64) -> Self {
+        let path: Vec<(f64, f64)> = path
+            .poses
+            .iter()
+            .map(|q| (q.pose.position.x, q.pose.position.y))
+            .collect();
+        // Each via point, searched from the last one on: a path may pass a place twice.
+        let mut from = 0;
+        let via_at = via
+            .iter()
+            .map(|v| {
+                let d = |p: &(f64, f64)| (p.0 - v.x).hypot(p.1 - v.y);
+                let at = (from..path.len())
+                    .find(|&i| d(&path[i]) < 1e-9)
+                    .or_else(|| {
+                        (from..path.len()).min_by(|&a, &b| d(&path[a]).total_cmp(&d(&path[b])))
+                    })
+                    .unwrap_or(from);
+                from = at;
+                at
+            })
+            .collect();
+        Self {
+            goals,
+            via_at,
+            path,
+            goal_yaw,
+        }
+    }
+}
 
 /// How a path is handed to the follower.
 #[derive(Debug)]
@@ -389,13 +445,34 @@ enum Install<'a> {
     Replan(&'a Arc<Vec<(f64, f64)>>, Option<Failure>),
 }
 
-/// The plan being followed: its owner (its number in [`Shared::goals`]), goal and path (map
-/// metres; shared, so a drive can tell a replanned path from the one it started on).
+/// The plan being followed: its owner (its number in [`Shared::goals`]), where it goes and its
+/// path (map metres; shared, so a drive can tell a replanned path from the one it started on).
 #[derive(Clone, Debug)]
 pub struct Followed {
     pub owner: u64,
-    pub goal: Pose2,
+    /// The via poses in order, then the goal (global frame).
+    pub goals: Vec<Pose2>,
+    /// Where the path passes each via pose (an index into `path`).
+    pub via_at: Vec<usize>,
     pub path: Arc<Vec<(f64, f64)>>,
+}
+
+impl Followed {
+    /// The goals still ahead of a robot at `progress` along the path (the follower's
+    /// [`Follower::progress`]): the via poses the path has not reached yet, then the goal. A via
+    /// pose counts as passed once the robot's nearest path point is the one at it, as Nav2's
+    /// RemovePassedGoals drops a goal the robot has come to.
+    pub fn goals_ahead(&self, progress: usize) -> Vec<Pose2> {
+        let Some((goal, via)) = self.goals.split_last() else {
+            return Vec::new();
+        };
+        via.iter()
+            .zip(&self.via_at)
+            .filter(|&(_, &at)| at > progress)
+            .map(|(&p, _)| p)
+            .chain(std::iter::once(*goal))
+            .collect()
+    }
 }
 
 /// A goal for the planning task (`plan_goals`): a `/goal_pose`, or the goal being followed again
@@ -404,7 +481,8 @@ pub struct Followed {
 pub struct GoalRequest {
     /// The goal's number (see [`Shared::goals`]); a replan keeps its goal's.
     pub owner: u64,
-    pub goal: Pose2,
+    /// The via poses still ahead in order (a replan of `navigate_through_poses`), then the goal.
+    pub goals: Vec<Pose2>,
     /// For a replan, the blocked path it replaces: the new path replaces it only while it is
     /// still followed ([`Shared::refollow`]), and a failure is reported to the goal's drive.
     pub replaces: Option<Arc<Vec<(f64, f64)>>>,
@@ -496,15 +574,69 @@ mod tests {
         vec![(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)]
     }
 
+    /// `path` handed over as a plan to (2, 0), with no via poses.
+    fn to_goal(path: Vec<(f64, f64)>) -> Handover {
+        Handover {
+            goals: vec![Pose2::new(2.0, 0.0, 0.0)],
+            via_at: Vec::new(),
+            path,
+            goal_yaw: 0.0,
+        }
+    }
+
+    /// Out along x to (2, 0) and back to (0, 0), then up to (0, 1): via poses at (2, 0) and at
+    /// (0, 0), where the path also starts. Each is found in order, the second at its second
+    /// passage; each counts as passed once the robot's progress reaches it.
+    #[test]
+    fn via_poses_are_found_in_order_along_the_path_and_passed_by_progress() {
+        let pose = |x: f64, y: f64| {
+            crate::convert::pose_stamped(Pose2::new(x, y, 0.0), Default::default())
+        };
+        let points = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (2.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 0.0),
+            (0.0, 1.0),
+        ];
+        let path = Path {
+            header: Default::default(),
+            poses: points.iter().map(|&(x, y)| pose(x, y)).collect(),
+        };
+        let goals = vec![
+            Pose2::new(2.0, 0.0, 0.0),
+            Pose2::new(0.0, 0.0, 0.0),
+            Pose2::new(0.0, 1.0, 1.0),
+        ];
+        let via = [Point2::new(2.0, 0.0), Point2::new(0.0, 0.0)];
+        let h = Handover::new(goals.clone(), &path, &via, 1.0);
+        assert_eq!(h.via_at, vec![2, 4]);
+        assert_eq!(h.path, points.to_vec());
+        let followed = Followed {
+            owner: 1,
+            goals: h.goals,
+            via_at: h.via_at,
+            path: Arc::new(h.path),
+        };
+        assert_eq!(followed.goals_ahead(0), goals);
+        assert_eq!(followed.goals_ahead(1), goals);
+        assert_eq!(followed.goals_ahead(2), goals[1..]);
+        assert_eq!(followed.goals_ahead(4), goals[2..]);
+        assert_eq!(followed.goals_ahead(5), goals[2..]);
+        // No via poses: the goal alone, wherever the robot is.
+        let plain = Handover::new(goals[2..].to_vec(), &path, &[], 1.0);
+        assert!(plain.via_at.is_empty());
+    }
+
     #[test]
     fn a_newer_goal_takes_the_robot_and_an_older_one_cannot_take_it_back() {
         let s = Shared::new(NodeParams::default(), PlannerConfig::default());
-        let goal = Pose2::new(2.0, 0.0, 0.0);
         let old = s.take_robot();
-        assert!(s.follow(old, goal, straight(), 0.0));
+        assert!(s.follow(old, to_goal(straight())));
         let new = s.take_robot();
         assert!(
-            !s.follow(old, goal, straight(), 0.0),
+            !s.follow(old, to_goal(straight())),
             "the older goal's plan came late"
         );
         assert!(
@@ -519,26 +651,25 @@ mod tests {
     #[test]
     fn a_replan_replaces_only_a_path_still_followed() {
         let s = Shared::new(NodeParams::default(), PlannerConfig::default());
-        let goal = Pose2::new(2.0, 0.0, 0.0);
         let id = s.take_robot();
         let none = Arc::new(straight());
         assert!(
-            !s.refollow(id, &none, goal, straight(), 0.0),
+            !s.refollow(id, &none, to_goal(straight())),
             "nothing followed yet"
         );
-        assert!(s.follow(id, goal, straight(), 0.0));
+        assert!(s.follow(id, to_goal(straight())));
         let first = s.followed.lock().unwrap().clone().unwrap().path;
         assert!(
-            !s.refollow(id, &none, goal, straight(), 0.0),
+            !s.refollow(id, &none, to_goal(straight())),
             "another path, equal or not"
         );
-        assert!(s.refollow(id, &first, goal, vec![(0.0, 0.0), (2.0, 0.0)], 0.0));
+        assert!(s.refollow(id, &first, to_goal(vec![(0.0, 0.0), (2.0, 0.0)])));
         let second = s.followed.lock().unwrap().clone().unwrap().path;
         assert!(!Arc::ptr_eq(&first, &second) && second.len() == 2);
         // A patrol's next leg (same owner, new path): the last leg's late replan is refused.
-        assert!(s.follow(id, goal, straight(), 0.0));
+        assert!(s.follow(id, to_goal(straight())));
         let leg = s.followed.lock().unwrap().clone().unwrap().path;
-        assert!(!s.refollow(id, &second, goal, straight(), 0.0));
+        assert!(!s.refollow(id, &second, to_goal(straight())));
         let late = Failure::new(ResultCode::NoValidPath, "late");
         assert!(!s.replan_failed(id, &second, late.clone()));
         assert!(Arc::ptr_eq(
@@ -547,7 +678,7 @@ mod tests {
         ));
         // The drive ends (cancelled): a replan finishing late does not start it again.
         assert!(s.stop_following(id));
-        assert!(!s.refollow(id, &leg, goal, straight(), 0.0));
+        assert!(!s.refollow(id, &leg, to_goal(straight())));
         assert!(s.follower.lock().unwrap().is_none());
         assert!(!s.replan_failed(id, &leg, late));
         assert!(s.take_failed_replan(id).is_none());
@@ -556,9 +687,8 @@ mod tests {
     #[test]
     fn a_failed_replan_stops_the_robot_and_tells_its_own_drive_why() {
         let s = Shared::new(NodeParams::default(), PlannerConfig::default());
-        let goal = Pose2::new(2.0, 0.0, 0.0);
         let id = s.take_robot();
-        assert!(s.follow(id, goal, straight(), 0.0));
+        assert!(s.follow(id, to_goal(straight())));
         let path = s.followed.lock().unwrap().clone().unwrap().path;
         let why = Failure::new(ResultCode::NoValidPath, "walled in");
         assert!(s.replan_failed(id, &path, why));
@@ -574,14 +704,13 @@ mod tests {
     #[test]
     fn an_inactive_node_is_handed_no_path_but_may_always_stop() {
         let s = Shared::new(NodeParams::default(), PlannerConfig::default());
-        let goal = Pose2::new(2.0, 0.0, 0.0);
         *s.lifecycle.write().unwrap() = crate::lifecycle::State::Inactive;
         let id = s.take_robot();
-        assert!(!s.follow(id, goal, straight(), 0.0));
+        assert!(!s.follow(id, to_goal(straight())));
         assert!(s.follower.lock().unwrap().is_none());
         assert!(s.stop_following(id));
         *s.lifecycle.write().unwrap() = crate::lifecycle::State::Active;
-        assert!(s.follow(id, goal, straight(), 0.0));
+        assert!(s.follow(id, to_goal(straight())));
     }
 
     #[test]
