@@ -9,8 +9,9 @@ GOAL_OCCUPIED (206). /cmd_vel stays within 0.6 m/s and 0.4 rad/s throughout.
 
 NavigateThroughPoses the same way, as goThroughPoses sends it (`navigate_through_poses`): one
 path through every pose in order, published on /plan, driven to the last pose, with the
-feedback's number_of_poses_remaining counting the poses down; no poses is NO_VIAPOINTS_GIVEN
-(309), a pose in an unknown frame TF_ERROR (302) naming the pose."""
+feedback's number_of_poses_remaining counting the poses down; a route back to where the car
+stands is driven round, not taken as done; no poses is NO_VIAPOINTS_GIVEN (309), more than 500
+UNKNOWN (300), a pose in an unknown frame TF_ERROR (302) naming the pose."""
 import math
 
 from action_msgs.msg import GoalStatus
@@ -150,7 +151,17 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         assert feedback[-1].distance_remaining < 0.3 and feedback[0].distance_remaining > 2.5, \
             [f.distance_remaining for f in feedback]
 
-        # Refused: no poses, and a pose in a frame the node does not know.
+        # A loop back to where the car stands: out to the via pose and home again, not done at
+        # the start.
+        farthest.clear()
+        r = send([stamped(*via), stamped(*goal)])
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
+        assert max(farthest) >= via[0] - 0.3, f"the loop turned back at x = {max(farthest):.2f}"
+
+        # Refused: no poses, more than a request may hold, and a pose in a frame the node does
+        # not know.
+        r = send([stamped(*goal)] * 501)
+        assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == 300, (r.status, r.result)
         r = send([])
         assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == 309, (r.status, r.result)
         r = send([stamped(*via), stamped(*goal, frame="nowhere")])

@@ -11,10 +11,13 @@
 //!
 //! A path that turns back on itself (a cusp: consecutive segments more than 90 degrees apart,
 //! as a route out to a via point and back has) is followed up to the cusp first, as Nav2's RPP
-//! cuts its lookahead at a direction change: neither the progress nor the lookahead point looks
-//! past it, the speed is regulated down towards it as towards the goal, and once the robot is
-//! there it turns on the spot onto the way back. Without that, the progress would jump to the
-//! way back where it runs beside the way out, and the robot would turn round short of the cusp.
+//! cuts its lookahead at a cusp when it may reverse; a differential drive that does not reverse
+//! turns on the spot there instead. Neither the progress nor the lookahead point looks past the
+//! cusp, and the speed is regulated down towards it as towards the goal. Without that, the
+//! progress would jump to the way back where it runs beside the way out, and the robot would
+//! turn round short of the cusp. For the same reason the goal counts as reached only once the
+//! robot has come along the path to it: a route that passes over its goal on the way, or loops
+//! back to where it started, is driven to its end.
 
 use crate::limits::TwistLimits;
 use crate::{Pose, Twist2};
@@ -73,11 +76,18 @@ pub struct Follower {
     nearest: usize,
     /// The indices of the path's cusps, in order (see the module's documentation).
     cusps: Vec<usize>,
+    /// The length of the path up to each point (m), so the way between two points is a
+    /// difference.
+    along: Vec<f64>,
 }
+
+/// How far along the path (m) the progress search looks ahead each tick: far beyond what the
+/// robot drives in a tick, and short of a loop that comes back past the same place.
+const SEARCH_AHEAD_M: f64 = 5.0;
 
 /// The indices of the points where `path` turns back: the next segment more than 90 degrees
 /// from the last (points that repeat are skipped: they have no direction).
-fn cusps(path: &[(f64, f64)]) -> Vec<usize> {
+pub fn cusps(path: &[(f64, f64)]) -> Vec<usize> {
     let mut found = Vec::new();
     let mut last: Option<(f64, f64)> = None;
     for (i, w) in path.windows(2).enumerate() {
@@ -100,13 +110,36 @@ fn wrap(a: f64) -> f64 {
 impl Follower {
     /// A follower for `path` (at least one point), ending with heading `goal_yaw`.
     pub fn new(params: FollowerParams, path: Vec<(f64, f64)>, goal_yaw: f64) -> Option<Self> {
-        (!path.is_empty()).then(|| Self {
+        if path.is_empty() {
+            return None;
+        }
+        let mut along = Vec::with_capacity(path.len());
+        let mut total = 0.0;
+        along.push(total);
+        for w in path.windows(2) {
+            total += (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
+            along.push(total);
+        }
+        Some(Self {
             params,
             cusps: cusps(&path),
+            along,
             path,
             goal_yaw,
             nearest: 0,
         })
+    }
+
+    /// The path point nearest `here` among those from the progress on, up to the next cusp
+    /// and within [`SEARCH_AHEAD_M`] along the path; of equally near points, the later (a
+    /// point repeated at a cusp is passed at its last copy).
+    fn nearest_ahead(&self, here: (f64, f64)) -> usize {
+        let dist = |i: usize| (self.path[i].0 - here.0).hypot(self.path[i].1 - here.1);
+        let reach = self.along[self.nearest] + SEARCH_AHEAD_M;
+        (self.nearest..=self.horizon())
+            .take_while(|&i| self.along[i] <= reach)
+            .min_by(|&a, &b| dist(a).total_cmp(&dist(b)).then(b.cmp(&a)))
+            .unwrap_or(self.nearest)
     }
 
     /// The farthest path point the robot may advance or look to now: the next cusp ahead of
@@ -130,42 +163,38 @@ impl Follower {
     /// the last progress on, up to the next cusp), then along the path to its end, as Nav2's
     /// navigators report `distance_remaining`.
     pub fn remaining(&self, pose: &Pose) -> f64 {
-        let dist = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
         let here = (pose.x, pose.y);
-        let nearest = (self.nearest..=self.horizon())
-            .min_by(|&a, &b| dist(self.path[a], here).total_cmp(&dist(self.path[b], here)))
-            .unwrap_or(self.nearest);
-        let along: f64 = self.path[nearest..]
-            .windows(2)
-            .map(|w| dist(w[0], w[1]))
-            .sum();
-        dist(here, self.path[nearest]) + along
+        let nearest = self.nearest_ahead(here);
+        let to_path = (self.path[nearest].0 - here.0).hypot(self.path[nearest].1 - here.1);
+        to_path + self.along[self.path.len() - 1] - self.along[nearest]
     }
 
     /// The command for the robot at `pose` under `limits` (speed limits only: the caller applies
     /// acceleration limits with [`TwistLimits::apply`]).
     pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
         let p = self.params;
-        let goal = *self.path.last().expect("non-empty");
         let dist = |q: (f64, f64)| ((q.0 - pose.x).powi(2) + (q.1 - pose.y).powi(2)).sqrt();
-        let d_goal = dist(goal);
-        if d_goal <= p.goal_tolerance {
+        // Progress: the nearest point, searching forward only (the path does not go backwards)
+        // and not past the next cusp, which counts as reached within the goal tolerance once
+        // the robot has come along the path to within a lookahead of it.
+        self.nearest = self.nearest_ahead((pose.x, pose.y));
+        let horizon = self.horizon();
+        let last = self.path.len() - 1;
+        let close = |f: &Self, i: usize| {
+            dist(f.path[i]) <= p.goal_tolerance
+                && f.along[i] - f.along[f.nearest] <= p.lookahead + p.goal_tolerance
+        };
+        if horizon < last && close(self, horizon) {
+            self.nearest = horizon;
+        }
+        // At the goal: the last stretch of the path, within the tolerance of its end.
+        if self.horizon() == last && close(self, last) {
             let err = wrap(self.goal_yaw - pose.yaw);
             if err.abs() <= p.yaw_tolerance {
                 return (Twist2::STOP, Status::Arrived);
             }
             let w = (2.0 * err).clamp(-limits.max_angular, limits.max_angular);
             return (Twist2::new(0.0, w), Status::Rotating);
-        }
-        // Progress: the nearest point, searching forward only (the path does not go backwards)
-        // and not past the next cusp, which counts as reached within the goal tolerance.
-        let horizon = self.horizon();
-        let window = (self.nearest..=horizon).take(200);
-        self.nearest = window
-            .min_by(|&a, &b| dist(self.path[a]).total_cmp(&dist(self.path[b])))
-            .unwrap_or(self.nearest);
-        if dist(self.path[horizon]) <= p.goal_tolerance {
-            self.nearest = horizon;
         }
         // Where the robot is to stop next: the next cusp (to turn on the spot there), or the goal.
         let horizon = self.horizon();
@@ -226,7 +255,40 @@ mod tests {
         assert!((at(0.0, 0.0) - 7.0).abs() < 1e-9);
         // Half a metre off the path at x = 1: back onto it, then 3 + 3 m.
         assert!((at(1.0, 0.5) - 6.5).abs() < 1e-9, "{}", at(1.0, 0.5));
-        assert!((at(4.0, 3.0)).abs() < 1e-9);
+        // Up the second leg, within the search's reach of the progress (still at the start).
+        assert!((at(4.0, 0.5) - 2.5).abs() < 1e-9, "{}", at(4.0, 0.5));
+    }
+
+    /// A route that loops back to where it starts, and one that passes over its goal on the
+    /// way: neither counts as arrived until the robot has driven round to the end.
+    #[test]
+    fn a_goal_passed_on_the_way_is_not_taken_for_arrival() {
+        let square = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (0.0, 0.0)];
+        let mut f = Follower::new(FollowerParams::default(), dense(&square), 0.0).unwrap();
+        let (_, status) = f.command(&Pose::default(), &TwistLimits::default());
+        assert_ne!(status, Status::Arrived, "arrived before setting off");
+        let (pose, steps, _, status) = drive(&square, 0.0, Pose::default());
+        assert_eq!(status, Status::Arrived);
+        assert!(pose.x.hypot(pose.y) <= 0.1 && steps as f64 * 0.05 > 8.0 / 0.6);
+        // Out to (3, 0) and back to (1.5, 0.05): the goal lies on the way out.
+        let out_and_back = [(0.0, 0.0), (3.0, 0.0), (1.5, 0.05)];
+        let mut f = Follower::new(FollowerParams::default(), dense(&out_and_back), 0.0).unwrap();
+        let mut car = Unicycle::new(Pose::default());
+        let limits = TwistLimits::default();
+        let mut farthest: f64 = 0.0;
+        for _ in 0..4000 {
+            let (cmd, status) = f.command(&car.pose, &limits);
+            if status == Status::Arrived {
+                break;
+            }
+            car.step(limits.apply(cmd, car.twist, 0.05), 0.05);
+            farthest = farthest.max(car.pose.x);
+        }
+        assert!(
+            farthest >= 2.9,
+            "stopped on the way out at x = {farthest:.2}"
+        );
+        assert!((car.pose.x - 1.5).hypot(car.pose.y - 0.05) <= 0.1);
     }
 
     /// Densifies a polyline to 0.05 m, as the planner's /plan is.

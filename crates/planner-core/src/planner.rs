@@ -416,7 +416,8 @@ pub fn solve(
 /// ComputePathThroughPoses does: one [`solve`] per leg on the same grid, with the same planner,
 /// random stream and interrupt (so a time budget is the whole request's), each leg starting
 /// where the one before ended (its goal, or the free cell within `tolerance` it was moved to).
-/// The legs are joined into one plan, measured as a whole ([`join_legs`]). With one goal this
+/// The interrupt is checked between legs too: a request cancelled or out of time starts no
+/// further leg. The legs are joined into one plan, measured as a whole ([`join_legs`]). With one goal this
 /// is [`solve`], bit for bit.
 pub fn solve_through(
     planner: &dyn Planner,
@@ -430,6 +431,10 @@ pub fn solve_through(
     let mut legs = Vec::with_capacity(goals.len());
     let mut from = start;
     for (i, &goal) in goals.iter().enumerate() {
+        // A request given up or out of time between legs starts no more of them.
+        if i > 0 {
+            ctx.check()?;
+        }
         let query = Query {
             start: from,
             goal,
@@ -493,8 +498,13 @@ pub fn join_legs(legs: Vec<Plan>) -> Option<Plan> {
         stats.iterations += s.iterations;
         stats.evaluations += s.evaluations;
         stats.cut_short |= s.cut_short;
-        // The first leg that did not run to its end says why the request stopped early.
-        if stats.termination.is_none() || stats.termination == Some(Termination::Completed) {
+        // An interrupted leg says why the request stopped early (it agrees with `cut_short`);
+        // else the first leg that did not run to its end says how the search ended.
+        let interrupted = |t: Option<Termination>| matches!(t, Some(Termination::Interrupted(_)));
+        if !interrupted(stats.termination)
+            && (interrupted(s.termination)
+                || matches!(stats.termination, None | Some(Termination::Completed)))
+        {
             stats.termination = s.termination;
         }
         for (name, value) in &s.counters {

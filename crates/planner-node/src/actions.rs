@@ -136,6 +136,9 @@ async fn run_goal<G: PlannerGoal>(
     if goal.poses().is_empty() {
         return failed(NO_VIAPOINTS_GIVEN, "no goals given".into());
     }
+    if let Err(f) = planning::check_pose_count(goal.poses().len()) {
+        return failed(nav2_code(f.code, G::CODE_BASE), f.message);
+    }
     let planner = match s.params.planner_for_id(goal.planner_id()) {
         Ok(p) => p,
         Err(reason) => return failed(G::CODE_BASE + 1, reason),

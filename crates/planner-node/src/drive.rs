@@ -13,6 +13,7 @@ use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
 use crate::state::{path_length, Handover, Shared};
+use chassis::limits::TwistLimits;
 use planner_core::geometry::Pose2;
 use std::future::Future;
 use std::sync::Arc;
@@ -21,8 +22,8 @@ use std::time::{Duration, Instant};
 /// How a drive ended.
 #[derive(Debug)]
 pub enum DriveEnd {
-    /// At the end of the plan (the goal, or the free cell it was moved to), within twice the
-    /// follower's goal tolerance.
+    /// At the end of the plan (the goal, or the free cell it was moved to): the follower
+    /// finished it, within its position and heading tolerances.
     Reached,
     /// Stopped on request; the robot brakes to a stop.
     Stopped,
@@ -48,6 +49,10 @@ pub struct Progress {
     /// The poses still ahead, the goal included, as Nav2's `number_of_poses_remaining`.
     pub poses_remaining: usize,
 }
+
+/// The time (s) a cusp of the path costs beside its half turn: the approach down to a crawl
+/// (the follower regulates the speed down over its `approach_distance`) and some slack.
+const CUSP_S: f64 = 15.0;
 
 /// How often a drive checks on the follower and reports its progress.
 const TICK: Duration = Duration::from_millis(100);
@@ -75,6 +80,7 @@ where
         ));
     };
     let tolerance = s.live.read().expect("lock").tolerance;
+    let started = Instant::now();
     // A newer goal (`/goal_pose`, another action's) takes the robot from this drive; a replan
     // of this drive's own path (a new map blocks it, inputs.rs) keeps it.
     let superseded = {
@@ -119,7 +125,7 @@ where
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
     let mut driven = Plan::default();
     if let Some(first) = s.followed.lock().expect("lock").as_ref() {
-        driven.update(&first.path, s.params.twist_limits.max_linear);
+        driven.update(&first.path, &s.params.twist_limits);
     }
     loop {
         tokio::time::sleep(TICK).await;
@@ -142,11 +148,11 @@ where
             let Some(f) = follower.as_ref() else { break };
             let followed = s.followed.lock().expect("lock");
             if let Some(now) = followed.as_ref() {
-                driven.update(&now.path, s.params.twist_limits.max_linear);
+                driven.update(&now.path, &s.params.twist_limits);
             }
             let poses = followed
                 .as_ref()
-                .map_or(1, |now| now.goals_ahead(f.progress()).len());
+                .map_or(1, |now| now.poses_ahead(f.progress()));
             let remaining = robot.map(|p| {
                 f.remaining(&chassis::Pose {
                     x: p.x,
@@ -183,11 +189,9 @@ where
     if let Some(f) = s.take_failed_replan(mine) {
         return DriveEnd::NoPlan(f);
     }
-    let at = s.odom.read().expect("lock").map(|(p, _)| p);
-    let reached = at.zip(driven.end).is_some_and(|(p, end)| {
-        (p.x - end.0).hypot(p.y - end.1) <= 2.0 * s.params.follower.goal_tolerance
-    });
-    if reached {
+    // Arrived is the follower's word (it finished this goal's path, whichever replan it was
+    // on), not where the robot is: a route may end where it started.
+    if s.arrived_since(mine, started) {
         DriveEnd::Reached
     } else {
         DriveEnd::NotReached
@@ -199,8 +203,6 @@ where
 struct Plan {
     /// The path, to tell a replan from it.
     path: Option<Arc<Vec<(f64, f64)>>>,
-    /// Where it ends: the goal, or the free cell it was moved to.
-    end: Option<(f64, f64)>,
     /// When the time to drive it runs out.
     deadline: Option<Instant>,
     /// When the whole drive's time runs out, replans and all: three times the first plan's, so a
@@ -211,15 +213,19 @@ struct Plan {
 }
 
 impl Plan {
-    /// Takes `path` as the plan if it is a new one (the first, or a replan): its end, and time
-    /// to drive it from now at a third of `max_linear`, plus 20 s for turning on the spot (not
-    /// beyond the drive's cap).
-    fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, max_linear: f64) {
+    /// Takes `path` as the plan if it is a new one (the first, or a replan), with the time to
+    /// drive it from now: its length at a third of the top speed, 20 s for turning on the spot,
+    /// and for each cusp (chassis::follower::cusps), where the robot slows to a stop and turns
+    /// round, [`CUSP_S`] and a half turn at the top turn rate (not beyond the drive's cap).
+    fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, limits: &TwistLimits) {
         if self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path)) {
             return;
         }
-        self.end = path.last().copied();
-        let time = Duration::from_secs_f64(20.0 + 3.0 * path_length(path) / max_linear.max(0.05));
+        let cusps = chassis::follower::cusps(path).len() as f64;
+        let per_cusp = CUSP_S + std::f64::consts::PI / limits.max_angular.max(0.05);
+        let time = Duration::from_secs_f64(
+            20.0 + 3.0 * path_length(path) / limits.max_linear.max(0.05) + cusps * per_cusp,
+        );
         let now = Instant::now();
         let cap = *self.cap.get_or_insert(now + 3 * time);
         self.deadline = Some((now + time).min(cap));

@@ -8,7 +8,7 @@ use chassis::Twist2;
 use log::{info, warn};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// The follower loop: at `control_rate_hz`, the next command for the plan being followed, from
 /// the latest `/odom`, within the twist and acceleration limits. It stops when odometry is stale
@@ -57,8 +57,11 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                     if status == FollowStatus::Arrived {
                         info!("goal reached");
                         *guard = None;
-                        // Nothing followed any more: a new map has no path to check.
-                        *s.followed.lock().expect("lock") = None;
+                        // Nothing followed any more: a new map has no path to check. The drive of
+                        // the goal it was learns it arrived.
+                        if let Some(done) = s.followed.lock().expect("lock").take() {
+                            *s.arrived.lock().expect("lock") = Some((done.owner, Instant::now()));
+                        }
                     }
                     cmd
                 }

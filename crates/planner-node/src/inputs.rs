@@ -133,7 +133,8 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
     }
     // How far along its path the robot has come (the follower's progress, which only grows,
     // so a path that passes a place twice is judged from the right passage), with the path:
-    // both under their locks, in the node's lock order.
+    // both under their locks, in the node's lock order. The goals still ahead are taken again
+    // when the replan starts (planning.rs).
     let (nearest, followed) = {
         let follower = s.follower.lock().expect("lock");
         let followed = s.followed.lock().expect("lock");

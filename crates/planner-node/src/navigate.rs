@@ -158,6 +158,9 @@ async fn navigate<G: NavigateGoal>(
     if goal.poses().is_empty() {
         return failed(NO_VIAPOINTS_GIVEN, "no poses given".into());
     }
+    if let Err(f) = crate::planning::check_pose_count(goal.poses().len()) {
+        return failed(nav2_code(f.code, G::CODE_BASE), f.message);
+    }
     // Every pose is carried into the global frame once, as the goal arrives: a pose in
     // `base_link` is relative to where the robot is now.
     let mut goals = Vec::with_capacity(goal.poses().len());

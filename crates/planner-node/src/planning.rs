@@ -18,6 +18,23 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::watch;
 
+/// The most poses one request may pass through (`compute_path_through_poses`,
+/// `navigate_through_poses`), as a route file holds at most this many points: each is a plan of
+/// its own, so a request's work and memory grow with their number.
+pub const MAX_POSES: usize = planner_core::route::file::MAX_POINTS;
+
+/// Refuses a request through more than [`MAX_POSES`] poses (before it takes the robot or
+/// starts a plan).
+pub fn check_pose_count(n: usize) -> Result<(), Failure> {
+    if n > MAX_POSES {
+        return Err(Failure::new(
+            ResultCode::InvalidInput,
+            format!("{n} poses: at most {MAX_POSES} in one request"),
+        ));
+    }
+    Ok(())
+}
+
 /// One planning request, whatever it came from (a goal, GetPlan, an action).
 pub struct Request<'a> {
     pub start: Pose2,
@@ -51,6 +68,9 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     let Some(goal) = goals.last().copied() else {
         return failed(Failure::new(ResultCode::InvalidInput, "no goal given"));
     };
+    if let Err(f) = check_pose_count(goals.len()) {
+        return failed(f);
+    }
     let Some(map) = s.current_map() else {
         return failed(Failure::new(
             ResultCode::NoMap,
@@ -66,8 +86,10 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
         Err(e) => return failed(Failure::new(ResultCode::InvalidPlanner, e.to_string())),
     };
     let t0 = Instant::now();
+    // The budget is per pose, as planner_server gives each leg of ComputePathThroughPoses its
+    // planner's own time.
     let deadline = (live.max_planning_time > 0.0)
-        .then(|| t0 + Duration::from_secs_f64(live.max_planning_time));
+        .then(|| t0 + Duration::from_secs_f64(live.max_planning_time * goals.len() as f64));
     let interrupt = || {
         if cancelled() {
             Some(Interrupt::Cancelled)
@@ -254,6 +276,12 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         if !s.owns_robot(id) {
             continue; // a newer goal is already waiting
         }
+        // A replan goes through the via poses still ahead now: the robot drove on since the
+        // block was seen.
+        let goals = replaces
+            .as_ref()
+            .and_then(|path| s.goals_ahead_on(path))
+            .unwrap_or(goals);
         let start = s.start.read().expect("lock").map(|(p, _)| p);
         let Some(start) = start else {
             let planner = s.live.read().expect("lock").planner;

@@ -121,6 +121,9 @@ pub struct Shared {
     /// The goal and path (map metres) of the plan being followed: checked again when a new
     /// map arrives, and replanned only when the new map blocks it.
     pub followed: Mutex<Option<Followed>>,
+    /// The goal (its number) whose path the follower last finished, and when: how a drive knows
+    /// it arrived (drive.rs), whichever of its replans the robot was on.
+    pub arrived: Mutex<Option<(u64, Instant)>>,
     /// Why the last replan of a goal (its number) failed, for its drive to report (drive.rs):
     /// the follower stops, and the drive's answer says why rather than only "not reached".
     pub failed_replan: Mutex<Option<(u64, Failure)>>,
@@ -166,6 +169,7 @@ impl Shared {
             follower: Mutex::new(None),
             followed: Mutex::new(None),
             failed_replan: Mutex::new(None),
+            arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
         }
     }
@@ -279,6 +283,20 @@ impl Shared {
         handover: Handover,
     ) -> bool {
         self.install_follower(owner, Some(handover), Install::Replan(replaces, None))
+    }
+
+    /// The goals still ahead on `path` (see [`Followed::goals_ahead`]), if it is still the path
+    /// being followed.
+    pub fn goals_ahead_on(&self, path: &Arc<Vec<(f64, f64)>>) -> Option<Vec<Pose2>> {
+        let follower = self.follower.lock().expect("lock");
+        let followed = self.followed.lock().expect("lock");
+        let (f, now) = (follower.as_ref()?, followed.as_ref()?);
+        Arc::ptr_eq(&now.path, path).then(|| now.goals_ahead(f.progress()))
+    }
+
+    /// Whether goal `owner`'s path was finished (the follower arrived) since `since`.
+    pub fn arrived_since(&self, owner: u64, since: Instant) -> bool {
+        matches!(*self.arrived.lock().expect("lock"), Some((o, at)) if o == owner && at >= since)
     }
 
     /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
@@ -473,6 +491,13 @@ impl Followed {
             .chain(std::iter::once(*goal))
             .collect()
     }
+
+    /// How many of [`Followed::goals_ahead`] there are, without making the list (each tick's
+    /// feedback counts them).
+    pub fn poses_ahead(&self, progress: usize) -> usize {
+        // `via_at` never decreases along the path.
+        self.via_at.len() - self.via_at.partition_point(|&at| at <= progress) + 1
+    }
 }
 
 /// A goal for the planning task (`plan_goals`): a `/goal_pose`, or the goal being followed again
@@ -624,6 +649,12 @@ mod tests {
         assert_eq!(followed.goals_ahead(2), goals[1..]);
         assert_eq!(followed.goals_ahead(4), goals[2..]);
         assert_eq!(followed.goals_ahead(5), goals[2..]);
+        for progress in 0..points.len() {
+            assert_eq!(
+                followed.poses_ahead(progress),
+                followed.goals_ahead(progress).len()
+            );
+        }
         // No via poses: the goal alone, wherever the robot is.
         let plain = Handover::new(goals[2..].to_vec(), &path, &[], 1.0);
         assert!(plain.via_at.is_empty());
@@ -682,6 +713,30 @@ mod tests {
         assert!(s.follower.lock().unwrap().is_none());
         assert!(!s.replan_failed(id, &leg, late));
         assert!(s.take_failed_replan(id).is_none());
+    }
+
+    /// A replan takes the goals still ahead on the path it replaces, and only while that path
+    /// is followed; an arrival counts for its own goal, after the drive started.
+    #[test]
+    fn a_replan_goes_on_from_the_goals_still_ahead_and_arrival_is_per_goal() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let id = s.take_robot();
+        let goals = vec![Pose2::new(1.0, 0.0, 0.0), Pose2::new(2.0, 0.0, 0.0)];
+        let handover = Handover {
+            goals: goals.clone(),
+            via_at: vec![1],
+            ..to_goal(straight())
+        };
+        assert!(s.follow(id, handover));
+        let path = s.followed.lock().unwrap().clone().unwrap().path;
+        assert_eq!(s.goals_ahead_on(&path), Some(goals.clone()));
+        assert_eq!(s.goals_ahead_on(&Arc::new(straight())), None, "another path");
+        let started = Instant::now();
+        assert!(!s.arrived_since(id, started));
+        *s.arrived.lock().unwrap() = Some((id, Instant::now()));
+        assert!(s.arrived_since(id, started));
+        assert!(!s.arrived_since(id + 1, started), "another goal's drive");
+        assert!(!s.arrived_since(id, Instant::now()), "an arrival before this drive started");
     }
 
     #[test]
