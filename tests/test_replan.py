@@ -3,14 +3,16 @@ car on a domain of their own, the bundled map published by this test. While the 
 plan, a new map that blocks the path ahead makes the node plan again (a new /plan that avoids the
 block, and the car drives on); a new map that does not touch the path leaves the plan as it was.
 Then the same for a NavigateToPose goal: its path planned again round a new block, the action
-still succeeds."""
+still succeeds. And for a NavigateThroughPoses goal blocked after its first via pose: the path
+planned again goes through the poses still ahead only (not back to the one passed), and the
+action succeeds."""
 import math
 
 from action_msgs.msg import GoalStatus
 from nav_msgs.msg import Odometry
 from rclpy.action import ActionClient
 
-from nav2_msgs.action import NavigateToPose
+from nav2_msgs.action import NavigateThroughPoses, NavigateToPose
 
 from conftest import ROOT, driving_rig, stamped
 from test_node import assert_collision_free, grid_msg
@@ -91,3 +93,29 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
         ros.spin_until(result.done, 90, "the action's result")
         r = result.result()
         assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
+
+        # NavigateThroughPoses along the bottom aisle: once the car has passed the first via
+        # pose, a block between it and the second; the new path goes round it through the poses
+        # still ahead.
+        via1, via2, end = (3.0, 0.8), (12.0, 0.8), (16.0, 0.8)
+        through = ActionClient(ros.node, NavigateThroughPoses, "navigate_through_poses")
+        ros.spin_until(lambda: through.server_is_ready(), 45, "the navigate_through_poses action")
+        feedback = []
+        sent = through.send_goal_async(NavigateThroughPoses.Goal(poses=[stamped(*via1), stamped(*via2), stamped(*end)]),
+                                       feedback_callback=lambda f: feedback.append(f.feedback))
+        handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "the through-poses goal's acceptance")
+        assert handle.accepted
+        result = handle.get_result_async()
+        ros.spin_until(lambda: any(f.number_of_poses_remaining == 2 for f in feedback), 60, "the car past the first via pose")
+        before, seen = len(ros.plans), len(feedback)
+        ros.map_pub.publish(grid_msg(blocked(new_grid, 7.0, 0.6, half=0.4), origin=(0.0, 0.0), res=RES))
+        replanned = ros.spin_until(lambda: [p for p in ros.plans[before:] if p.poses], 15, "a new /plan for the through-poses goal")[-1]
+
+        def passes(plan, q):
+            return any(math.hypot(p.pose.position.x - q[0], p.pose.position.y - q[1]) < 1e-6 for p in plan.poses)
+
+        assert passes(replanned, via2) and not passes(replanned, via1), "the new path goes through the poses ahead only"
+        ros.spin_until(result.done, 120, "the through-poses goal's result")
+        r = result.result()
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
+        assert all(f.number_of_poses_remaining <= 2 for f in feedback[seen:]), [f.number_of_poses_remaining for f in feedback]
