@@ -1,7 +1,8 @@
 """The node as a Nav2 stack uses planner_server, with nav2_msgs built into the test venv
 (tests/build_interfaces.sh): ComputePathToPose as nav2_simple_commander's getPath calls it,
 ComputePathThroughPoses as getPathThroughPoses does, Nav2's error codes, cancel during a slow
-plan, planner ids, the requests FollowWaypoints refuses, and is_path_valid. The node runs on a domain of its own, with the test map of
+plan, planner ids, the requests FollowWaypoints refuses, results asked for late and out of order,
+and is_path_valid. The node runs on a domain of its own, with the test map of
 test_node.py published on /map (collisions checked with this suite's own code)."""
 import math
 
@@ -156,6 +157,21 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         w.poses, w.goal_index = [stamped(*goal)], 1
         status, result = nav2.send(nav2.waypoints, w)
         assert (status, result.error_code) == (6, 600) and "goal_index" in result.error_msg, result.error_msg
+
+        # Two goals that end before their clients ask for the results, asked for in the other
+        # order: each client gets its own (ros2-client reads result requests only while sending
+        # a result; the node's tries look among those another goal's try has read).
+        ros.spin_until(lambda: nav2.to_pose.server_is_ready(), 45, "the action server")
+        handles = []
+        for planner_id in ("", "any_angle"):
+            g = ComputePathToPose.Goal()
+            g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*goal), True, planner_id
+            sent = nav2.to_pose.send_goal_async(g)
+            handles.append(ros.spin_until(lambda: sent.done() and sent.result(), 20, "the goal's acceptance"))
+        ros.spin_for(2.0)  # both planned (the first preempted or done) and waiting
+        results = [h.get_result_async() for h in reversed(handles)]
+        ros.spin_until(lambda: all(r.done() for r in results), 10, "both results, asked for late")
+        assert results[0].result().status == 4, results[0].result().result.error_msg  # the newer one
 
         # is_path_valid: through the wall invalid with its indices, in free space valid.
         crossing = [world(4.0, 3.0), world(5.5, 3.0), world(7.0, 3.0)]

@@ -15,6 +15,7 @@ use std::collections::BTreeSet;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 /// The goals of one action asked to stop.
 #[derive(Default)]
@@ -180,14 +181,54 @@ pub async fn serve<G, R, F, Run, Fut>(
             tokio::spawn(async move {
                 let (status, result) = running.await;
                 stops.cancelled.lock().expect("lock").remove(&id);
-                if let Err(e) = server.send_result_response(executing, status, result).await {
-                    warn!("{name}: result: {e:?}");
-                }
+                send_result(name, &server, executing, status, result).await;
             });
         }
     };
     // Goals and cancels side by side; both end when the node's task set is shut down.
     tokio::join!(goals, serve_cancels(name, server.clone(), stops.clone()));
+}
+
+/// How long a finished goal's result waits for its client to ask for it, as rcl_action keeps
+/// results for its `result_timeout` (15 minutes) by default.
+const RESULT_TIMEOUT: Duration = Duration::from_secs(900);
+
+/// How long one try at sending a result waits for its request before it starts again.
+const RESULT_RETRY: Duration = Duration::from_millis(250);
+
+/// Answers the client's request for one goal's result. ros2-client reads result requests only
+/// while a result is being sent: a try waiting for its own request stores the others it reads
+/// for their goals, but a try already waiting for one that another try has read and stored
+/// would wait for ever (two goals ending together, their clients asking afterwards). So each
+/// try gives up after [`RESULT_RETRY`] and the next looks among the stored requests first,
+/// until the client has asked or [`RESULT_TIMEOUT`] has passed. A try cut short loses
+/// nothing: a request is stored or answered in the same step it is read.
+async fn send_result<G, R, F>(
+    name: &'static str,
+    server: &AsyncActionServer<G, R, F>,
+    executing: ExecutingGoalHandle<G>,
+    status: GoalEndStatus,
+    result: R,
+) where
+    G: Message + Clone,
+    R: Message + Clone + 'static,
+    F: Message,
+{
+    let waiting = Instant::now();
+    loop {
+        let attempt = server.send_result_response(executing.clone(), status, result.clone());
+        match tokio::time::timeout(RESULT_RETRY, attempt).await {
+            Ok(Ok(())) => return,
+            Ok(Err(e)) => return warn!("{name}: result: {e:?}"),
+            Err(_) if waiting.elapsed() < RESULT_TIMEOUT => continue,
+            Err(_) => {
+                return warn!(
+                    "{name}: result: no client asked for it in {} s; dropped",
+                    RESULT_TIMEOUT.as_secs()
+                )
+            }
+        }
+    }
 }
 
 /// Accepts every cancel request for a goal still running; the goal's run notices it

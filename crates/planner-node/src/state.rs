@@ -730,13 +730,20 @@ mod tests {
         assert!(s.follow(id, handover));
         let path = s.followed.lock().unwrap().clone().unwrap().path;
         assert_eq!(s.goals_ahead_on(&path), Some(goals.clone()));
-        assert_eq!(s.goals_ahead_on(&Arc::new(straight())), None, "another path");
+        assert_eq!(
+            s.goals_ahead_on(&Arc::new(straight())),
+            None,
+            "another path"
+        );
         let started = Instant::now();
         assert!(!s.arrived_since(id, started));
         *s.arrived.lock().unwrap() = Some((id, Instant::now()));
         assert!(s.arrived_since(id, started));
         assert!(!s.arrived_since(id + 1, started), "another goal's drive");
-        assert!(!s.arrived_since(id, Instant::now()), "an arrival before this drive started");
+        assert!(
+            !s.arrived_since(id, Instant::now()),
+            "an arrival before this drive started"
+        );
     }
 
     #[test]
