@@ -131,15 +131,27 @@ impl Follower {
     }
 
     /// The path point nearest `here` among those from the progress on, up to the next cusp
-    /// and within [`SEARCH_AHEAD_M`] along the path; of equally near points, the later (a
-    /// point repeated at a cusp is passed at its last copy).
+    /// and within [`SEARCH_AHEAD_M`] along the path, in the first stretch of the path that
+    /// comes near: the search stops once the path has gone a lookahead farther away than the
+    /// nearest point so far, so that a path crossing itself further on is not taken up at the
+    /// crossing. Of equally near points, the later (a point repeated at a cusp is passed at its
+    /// last copy).
     fn nearest_ahead(&self, here: (f64, f64)) -> usize {
         let dist = |i: usize| (self.path[i].0 - here.0).hypot(self.path[i].1 - here.1);
         let reach = self.along[self.nearest] + SEARCH_AHEAD_M;
-        (self.nearest..=self.horizon())
-            .take_while(|&i| self.along[i] <= reach)
-            .min_by(|&a, &b| dist(a).total_cmp(&dist(b)).then(b.cmp(&a)))
-            .unwrap_or(self.nearest)
+        let mut best = (self.nearest, dist(self.nearest));
+        for i in self.nearest..=self.horizon() {
+            if self.along[i] > reach {
+                break;
+            }
+            let d = dist(i);
+            if d <= best.1 {
+                best = (i, d);
+            } else if d > best.1 + self.params.lookahead {
+                break;
+            }
+        }
+        best.0
     }
 
     /// The farthest path point the robot may advance or look to now: the next cusp ahead of
@@ -257,6 +269,31 @@ mod tests {
         assert!((at(1.0, 0.5) - 6.5).abs() < 1e-9, "{}", at(1.0, 0.5));
         // Up the second leg, within the search's reach of the progress (still at the start).
         assert!((at(4.0, 0.5) - 2.5).abs() < 1e-9, "{}", at(4.0, 0.5));
+    }
+
+    /// A path that crosses itself 4 m on (out 1.6 m, round a 0.8 m loop, back across the way
+    /// out): a robot on the way out at the crossing is on the first passage, though a point of
+    /// the second is nearer it.
+    #[test]
+    fn progress_keeps_to_the_first_passage_of_a_crossing() {
+        let path = [
+            (0.0, 0.0),
+            (1.6, 0.0),
+            (1.6, 0.8),
+            (0.83, 0.8),
+            (0.83, -1.0),
+        ];
+        let mut f = Follower::new(FollowerParams::default(), dense(&path), 0.0).unwrap();
+        assert!(f.cusps.is_empty());
+        let _ = f.command(
+            &Pose {
+                x: 0.83,
+                y: 0.0,
+                yaw: 0.0,
+            },
+            &TwistLimits::default(),
+        );
+        assert_eq!(f.progress(), 17, "0.85 m on, at 0.05 m a point");
     }
 
     /// A route that loops back to where it starts, and one that passes over its goal on the

@@ -93,6 +93,10 @@ pub struct PlanContext<'a> {
     pub interrupt: &'a dyn Fn() -> Option<Interrupt>,
     /// Called after every iteration of a population planner (convergence plots, progress bars).
     pub observer: Option<&'a mut dyn FnMut(&Iteration)>,
+    /// Called by [`solve_through`] as each leg starts (0 the first), so that a caller can give
+    /// every leg a time budget of its own, as Nav2's planner_server gives each leg of
+    /// ComputePathThroughPoses its planner's own time.
+    pub on_leg: Option<&'a dyn Fn(usize)>,
 }
 
 impl<'a> PlanContext<'a> {
@@ -102,6 +106,7 @@ impl<'a> PlanContext<'a> {
             rng,
             interrupt,
             observer: None,
+            on_leg: None,
         }
     }
 
@@ -414,10 +419,10 @@ pub fn solve(
 
 /// Plans from `start` through each of `goals` in order, the last being the goal, as Nav2's
 /// ComputePathThroughPoses does: one [`solve`] per leg on the same grid, with the same planner,
-/// random stream and interrupt (so a time budget is the whole request's), each leg starting
-/// where the one before ended (its goal, or the free cell within `tolerance` it was moved to).
-/// The interrupt is checked between legs too: a request cancelled or out of time starts no
-/// further leg. The legs are joined into one plan, measured as a whole ([`join_legs`]). With one goal this
+/// random stream and interrupt, each leg starting where the one before ended (its goal, or the
+/// free cell within `tolerance` it was moved to). `ctx.on_leg` is told as each leg starts (a
+/// caller's per-leg time budget starts there), and the interrupt is checked between legs too:
+/// a request cancelled or out of time starts no further leg. The legs are joined into one plan, measured as a whole ([`join_legs`]). With one goal this
 /// is [`solve`], bit for bit.
 pub fn solve_through(
     planner: &dyn Planner,
@@ -431,6 +436,9 @@ pub fn solve_through(
     let mut legs = Vec::with_capacity(goals.len());
     let mut from = start;
     for (i, &goal) in goals.iter().enumerate() {
+        if let Some(on_leg) = ctx.on_leg {
+            on_leg(i);
+        }
         // A request given up or out of time between legs starts no more of them.
         if i > 0 {
             ctx.check()?;

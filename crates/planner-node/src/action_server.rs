@@ -8,7 +8,7 @@
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use log::{info, warn};
-use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
+use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalError};
 use ros2_client::action_msgs::GoalId;
 use ros2_client::Message;
 use std::collections::BTreeSet;
@@ -219,6 +219,9 @@ async fn send_result<G, R, F>(
         let attempt = server.send_result_response(executing.clone(), status, result.clone());
         match tokio::time::timeout(RESULT_RETRY, attempt).await {
             Ok(Ok(())) => return,
+            // A request that could not be read (another client's, perhaps): the next try goes
+            // on reading.
+            Ok(Err(GoalError::DDSReadError(e))) => warn!("{name}: a result request: {e:?}"),
             Ok(Err(e)) => return warn!("{name}: result: {e:?}"),
             Err(_) if waiting.elapsed() < RESULT_TIMEOUT => continue,
             Err(_) => {

@@ -129,6 +129,10 @@ where
     }
     loop {
         tokio::time::sleep(TICK).await;
+        // Arrived within the last tick: reached, whatever came after (a cancel, a newer goal).
+        if s.arrived_since(mine, started) {
+            return DriveEnd::Reached;
+        }
         // Stopping leaves a newer goal's drive be (`stop_following` checks the owner).
         if stop.requested() {
             s.stop_following(mine);
@@ -182,20 +186,18 @@ where
         }
     }
     // The follower went (arrived, a failed replan, a deactivation, a newer goal), or the time
-    // to drive it ran out.
+    // to drive it ran out. Arrived is the follower's word (it finished this goal's path,
+    // whichever replan it was on), not where the robot is: a route may end where it started.
+    if s.arrived_since(mine, started) {
+        return DriveEnd::Reached;
+    }
     if let Some(end) = taken() {
         return end;
     }
     if let Some(f) = s.take_failed_replan(mine) {
         return DriveEnd::NoPlan(f);
     }
-    // Arrived is the follower's word (it finished this goal's path, whichever replan it was
-    // on), not where the robot is: a route may end where it started.
-    if s.arrived_since(mine, started) {
-        DriveEnd::Reached
-    } else {
-        DriveEnd::NotReached
-    }
+    DriveEnd::NotReached
 }
 
 /// The path a drive is following, as last seen on the follower.

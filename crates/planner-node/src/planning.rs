@@ -14,6 +14,7 @@ use planner_core::planner::{Interrupt, PlanContext, PlannerRng};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
 use ros2_client::Server;
+use std::cell::Cell;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::watch;
@@ -86,21 +87,24 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
         Err(e) => return failed(Failure::new(ResultCode::InvalidPlanner, e.to_string())),
     };
     let t0 = Instant::now();
-    // The budget is per pose, as planner_server gives each leg of ComputePathThroughPoses its
-    // planner's own time.
-    let deadline = (live.max_planning_time > 0.0)
-        .then(|| t0 + Duration::from_secs_f64(live.max_planning_time * goals.len() as f64));
+    // The budget is each leg's, as planner_server gives each leg of ComputePathThroughPoses its
+    // planner's own time: the deadline moves on as each leg starts.
+    let budget =
+        (live.max_planning_time > 0.0).then(|| Duration::from_secs_f64(live.max_planning_time));
+    let leg_started = Cell::new(t0);
     let interrupt = || {
         if cancelled() {
             Some(Interrupt::Cancelled)
-        } else if deadline.is_some_and(|d| Instant::now() >= d) {
+        } else if budget.is_some_and(|b| leg_started.get().elapsed() >= b) {
             Some(Interrupt::Deadline)
         } else {
             None
         }
     };
+    let next_leg = |_: usize| leg_started.set(Instant::now());
     let mut rng = PlannerRng::seed_from_u64(seed);
     let mut ctx = PlanContext::new(&mut rng, &interrupt);
+    ctx.on_leg = Some(&next_leg);
     let points: Vec<Point2> = goals.iter().map(|g| Point2::new(g.x, g.y)).collect();
     let result = planner_core::solve_through(
         planner.as_ref(),
@@ -276,12 +280,15 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
         if !s.owns_robot(id) {
             continue; // a newer goal is already waiting
         }
-        // A replan goes through the via poses still ahead now: the robot drove on since the
-        // block was seen.
-        let goals = replaces
-            .as_ref()
-            .and_then(|path| s.goals_ahead_on(path))
-            .unwrap_or(goals);
+        // A replan goes through the via poses still ahead now (the robot drove on since the
+        // block was seen), and only while its path is still followed (not arrived, ended).
+        let goals = match &replaces {
+            Some(path) => match s.goals_ahead_on(path) {
+                Some(ahead) => ahead,
+                None => continue,
+            },
+            None => goals,
+        };
         let start = s.start.read().expect("lock").map(|(p, _)| p);
         let Some(start) = start else {
             let planner = s.live.read().expect("lock").planner;
