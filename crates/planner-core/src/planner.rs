@@ -93,10 +93,10 @@ pub struct PlanContext<'a> {
     pub interrupt: &'a dyn Fn() -> Option<Interrupt>,
     /// Called after every iteration of a population planner (convergence plots, progress bars).
     pub observer: Option<&'a mut dyn FnMut(&Iteration)>,
-    /// Called by [`solve_through`] as each leg starts (0 the first), so that a caller can give
-    /// every leg a time budget of its own, as Nav2's planner_server gives each leg of
+    /// Called by [`solve_through`] as each leg starts, so that a caller can give every leg a
+    /// time budget of its own, as Nav2's planner_server gives each leg of
     /// ComputePathThroughPoses its planner's own time.
-    pub on_leg: Option<&'a dyn Fn(usize)>,
+    pub on_leg: Option<&'a dyn Fn()>,
 }
 
 impl<'a> PlanContext<'a> {
@@ -422,8 +422,8 @@ pub fn solve(
 /// random stream and interrupt, each leg starting where the one before ended (its goal, or the
 /// free cell within `tolerance` it was moved to). `ctx.on_leg` is told as each leg starts (a
 /// caller's per-leg time budget starts there), and the interrupt is checked between legs too:
-/// a request cancelled or out of time starts no further leg. The legs are joined into one plan, measured as a whole ([`join_legs`]). With one goal this
-/// is [`solve`], bit for bit.
+/// a request cancelled or out of time starts no further leg. The legs are joined into one
+/// plan, measured as a whole ([`join_legs`]). With one goal this is [`solve`], bit for bit.
 pub fn solve_through(
     planner: &dyn Planner,
     grid: &PlanningGrid,
@@ -437,7 +437,7 @@ pub fn solve_through(
     let mut from = start;
     for (i, &goal) in goals.iter().enumerate() {
         if let Some(on_leg) = ctx.on_leg {
-            on_leg(i);
+            on_leg();
         }
         // A request given up or out of time between legs starts no more of them.
         if i > 0 {

@@ -101,7 +101,7 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
             None
         }
     };
-    let next_leg = |_: usize| leg_started.set(Instant::now());
+    let next_leg = || leg_started.set(Instant::now());
     let mut rng = PlannerRng::seed_from_u64(seed);
     let mut ctx = PlanContext::new(&mut rng, &interrupt);
     ctx.on_leg = Some(&next_leg);
