@@ -10,7 +10,9 @@ GOAL_OCCUPIED (206). /cmd_vel stays within 0.6 m/s and 0.4 rad/s throughout.
 NavigateThroughPoses the same way, as goThroughPoses sends it (`navigate_through_poses`): one
 path through every pose in order, published on /plan, driven to the last pose, with the
 feedback's number_of_poses_remaining counting the poses down; a route back to where the car
-stands is driven round, not taken as done; no poses is NO_VIAPOINTS_GIVEN (309), more than 500
+stands is driven round, not taken as done; a navigate_to_pose goal while a route is driven
+is refused (aborted, error code 0) and the route goes on, as bt_navigator's navigators share the
+robot; no poses is NO_VIAPOINTS_GIVEN (309), more than 500
 UNKNOWN (300), a pose in an unknown frame TF_ERROR (302) naming the pose."""
 import math
 
@@ -157,6 +159,36 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         r = send([stamped(*via), stamped(*goal)])
         assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
         assert max(farthest) >= via[0] - 0.3, f"the loop turned back at x = {max(farthest):.2f}"
+
+        # One navigation at a time, as bt_navigator: a navigate_to_pose goal while the route
+        # is driven ends at once, aborted with error code 0, and the route goes on to its end;
+        # once it has ended, navigate_to_pose is served again.
+        to_pose = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
+        ros.spin_until(lambda: to_pose.server_is_ready(), 45, "the navigate_to_pose action")
+
+        def result_of(client, goal, what):
+            sent = client.send_goal_async(goal)
+            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, f"acceptance of {what}")
+            assert handle.accepted
+            return handle.get_result_async()
+
+        p0 = odom[-1].pose.pose.position
+        route = result_of(client, NavigateThroughPoses.Goal(poses=[stamped(*FAR), stamped(*NEAR)]), "the route")
+        ros.spin_until(lambda: math.hypot(odom[-1].pose.pose.position.x - p0.x, odom[-1].pose.pose.position.y - p0.y) >= 0.5,
+                       60, "the car under way on the route")
+        other = result_of(to_pose, NavigateToPose.Goal(pose=stamped(1.0, 0.5, math.pi)), "a navigate_to_pose goal")
+        ros.spin_until(other.done, 30, "the refused goal's result")
+        o = other.result()
+        assert o.status == GoalStatus.STATUS_ABORTED and o.result.error_code == 0, (o.status, o.result)
+        assert "navigate_through_poses is navigating" in o.result.error_msg, o.result.error_msg
+        ros.spin_until(route.done, 120, "the route's result")
+        r = route.result()
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
+        p = odom[-1].pose.pose.position
+        assert math.hypot(p.x - NEAR[0], p.y - NEAR[1]) <= 0.15
+        after = result_of(to_pose, NavigateToPose.Goal(pose=stamped(1.0, 0.5, math.pi)), "a goal after the route")
+        ros.spin_until(after.done, 90, "that goal's result")
+        assert after.result().status == GoalStatus.STATUS_SUCCEEDED, after.result().result.error_msg
 
         # Refused: no poses, more than a request may hold, and a pose in a frame the node does
         # not know.

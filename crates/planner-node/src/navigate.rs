@@ -6,11 +6,14 @@
 //! bt_navigator's: the robot's pose, the time since the goal arrived, the path length still to
 //! drive, the time remaining at the current speed, no recoveries (the node has none), and, for
 //! through-poses, the poses still ahead. A newer goal of the same action preempts the running
-//! one (aborted), a client's cancel stops the robot (canceled). A failure carries the code of
-//! the step that failed, as bt_navigator reports it: the planner's (ComputePathToPose's 2xx,
-//! ComputePathThroughPoses' 3xx) or the controller's FAILED_TO_MAKE_PROGRESS (105) for a plan
-//! not driven within its time. `behavior_tree` names one of bt_navigator's trees; this node has
-//! none, and says so in its log.
+//! one (aborted), a client's cancel stops the robot (canceled); a goal of the other navigate
+//! action while one navigates is refused (aborted, error code 0) and the running one goes on,
+//! as bt_navigator's navigators share it. `/goal_pose` and `follow_waypoints` take the robot
+//! from either. A failure carries the code of the step that failed, as bt_navigator reports
+//! it: the planner's (ComputePathToPose's 2xx, ComputePathThroughPoses' 3xx) or the
+//! controller's FAILED_TO_MAKE_PROGRESS (105) for a plan not driven within its time.
+//! `behavior_tree` names one of bt_navigator's trees; this node has none, and says so in its
+//! log.
 
 use crate::action_server::{Feedback, GoalStop};
 use crate::actions::{nav2_code, NO_VIAPOINTS_GIVEN};
@@ -201,7 +204,21 @@ async fn navigate<G: NavigateGoal>(
         });
         async move { feedback.send(message).await }
     };
-    match drive_to(s, o, &goals, s.take_robot(), stop, progress).await {
+    // One navigator at a time, as bt_navigator: while the other navigate action drives, this
+    // goal ends at once, aborted with no error code, as bt_navigator terminates it.
+    let mine = match s.start_navigating(name) {
+        Ok(mine) => Navigating { s, mine },
+        Err(other) => {
+            return failed(
+                0,
+                format!(
+                    "{other} is navigating: one navigation at a time, as bt_navigator; cancel \
+                     it first"
+                ),
+            )
+        }
+    };
+    match drive_to(s, o, &goals, mine.mine, stop, progress).await {
         DriveEnd::Reached => {
             info!(
                 "{name}: reached ({:.2}, {:.2}) in {:.1} s",
@@ -225,5 +242,17 @@ async fn navigate<G: NavigateGoal>(
             FAILED_TO_MAKE_PROGRESS,
             "the robot did not reach the end of its plan within the time to drive it".into(),
         ),
+    }
+}
+
+/// A goal's claim to be the navigator navigating, given up when its run ends, however it ends.
+struct Navigating<'a> {
+    s: &'a Shared,
+    mine: u64,
+}
+
+impl Drop for Navigating<'_> {
+    fn drop(&mut self) {
+        self.s.done_navigating(self.mine);
     }
 }

@@ -131,6 +131,8 @@ pub struct Shared {
     pub moving: AtomicBool,
     /// The lifecycle state: only an active node plans and drives.
     pub lifecycle: RwLock<crate::lifecycle::State>,
+    /// The navigate action navigating, and its goal's number (see [`Shared::start_navigating`]).
+    navigator: Mutex<Option<(&'static str, u64)>>,
 }
 
 impl Shared {
@@ -171,6 +173,7 @@ impl Shared {
             failed_replan: Mutex::new(None),
             arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
+            navigator: Mutex::new(None),
         }
     }
 
@@ -259,6 +262,33 @@ impl Shared {
     /// as newer than its own and stops for ([`Shared::owns_robot`]).
     pub fn take_robot(&self) -> u64 {
         self.goals.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1
+    }
+
+    /// Takes the robot for a goal of the navigate action `name`, unless the other navigate
+    /// action is navigating: then `Err` names it. One navigator at a time, as bt_navigator's
+    /// navigators share it (`NavigatorMuxer`): a goal of the other one is refused and the
+    /// running one goes on; a newer goal of the same action preempts it (action_server.rs). A
+    /// navigator whose goal has lost the robot (to `/goal_pose` or `follow_waypoints`, which
+    /// are not bt_navigator's navigators here) no longer counts. End with
+    /// [`Shared::done_navigating`].
+    pub fn start_navigating(&self, name: &'static str) -> Result<u64, &'static str> {
+        let mut navigator = self.navigator.lock().expect("lock");
+        match *navigator {
+            Some((other, owner)) if other != name && self.owns_robot(owner) => Err(other),
+            _ => {
+                let owner = self.take_robot();
+                *navigator = Some((name, owner));
+                Ok(owner)
+            }
+        }
+    }
+
+    /// Ends goal `owner`'s navigation, if it is still the one navigating.
+    pub fn done_navigating(&self, owner: u64) {
+        let mut navigator = self.navigator.lock().expect("lock");
+        if navigator.is_some_and(|(_, o)| o == owner) {
+            *navigator = None;
+        }
     }
 
     /// Whether goal `owner` still has the robot (no newer goal has taken it).
@@ -677,6 +707,29 @@ mod tests {
         assert!(s.follower.lock().unwrap().is_some());
         assert!(s.stop_following(new));
         assert!(s.follower.lock().unwrap().is_none() && s.followed.lock().unwrap().is_none());
+    }
+
+    #[test]
+    fn one_navigator_at_a_time_as_bt_navigator() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let route = s.start_navigating("navigate_through_poses").unwrap();
+        assert_eq!(
+            s.start_navigating("navigate_to_pose"),
+            Err("navigate_through_poses"),
+            "the other navigator is refused"
+        );
+        assert!(s.owns_robot(route), "and the running one keeps the robot");
+        // A newer goal of the same action takes over, and the older one's end leaves it be.
+        let newer = s.start_navigating("navigate_through_poses").unwrap();
+        assert!(newer > route && s.owns_robot(newer));
+        s.done_navigating(route);
+        assert!(s.start_navigating("navigate_to_pose").is_err());
+        s.done_navigating(newer);
+        let pose = s.start_navigating("navigate_to_pose").unwrap();
+        // A /goal_pose (or a patrol) taking the robot ends the navigation: the other may start.
+        s.take_robot();
+        assert!(!s.owns_robot(pose));
+        assert!(s.start_navigating("navigate_through_poses").is_ok());
     }
 
     #[test]
