@@ -273,7 +273,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let units = astar
                 .as_ref()
                 .map(|p| (p.metrics.length_m, p.metrics.turning_rad.max(0.1)));
-            let reference = ws.reference(&query)?.map(|p| p.metrics.length_m);
+            let reference = ws.reference(&query, &[])?.map(|p| p.metrics.length_m);
             // A*'s median time on this query, for the time ratios.
             let mut astar_times = Vec::new();
             for seed in 0..args.runs {

@@ -60,6 +60,10 @@ struct Request {
     /// Goal `X,Y` in map metres.
     #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
     goal: [f64; 2],
+    /// A via point `X,Y` in map metres, passed before the goal; repeat it for more, passed in
+    /// the order given (one plan through them all, as Nav2's ComputePathThroughPoses).
+    #[arg(long = "via", value_name = "X,Y", value_parser = parse_point, allow_hyphen_values = true)]
+    via: Vec<[f64; 2]>,
     #[command(flatten)]
     common: Common,
 }
@@ -149,6 +153,7 @@ fn run(cli: Cli) -> Result<()> {
         } => run::plan_command(
             &r.map,
             r.start,
+            &r.via,
             r.goal,
             planner,
             seed,
@@ -168,6 +173,7 @@ fn run(cli: Cli) -> Result<()> {
         } => run::render_command(
             &r.map,
             r.start,
+            &r.via,
             r.goal,
             &planners,
             seed,

@@ -61,6 +61,26 @@ impl Layer {
     pub fn endpoints(start: Point2, goal: Point2) -> Self {
         Layer::Endpoints { start, goal }
     }
+    /// Via points, numbered in the order the path passes them, each with a tick along the way
+    /// to the next.
+    pub fn via(points: &[Point2]) -> Self {
+        Layer::Stops(
+            points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let next = points.get(i + 1).unwrap_or(p);
+                    Stop {
+                        position: *p,
+                        yaw: (next.y - p.y).atan2(next.x - p.x),
+                        label: (i + 1).to_string(),
+                        title: format!("via {} ({:.2}, {:.2})", i + 1, p.x, p.y),
+                        skipped: false,
+                    }
+                })
+                .collect(),
+        )
+    }
 }
 
 /// Text made safe inside SVG elements and attributes (labels carry user-given names).

@@ -70,28 +70,42 @@ impl Workspace {
         query: &Query,
         seed: u64,
     ) -> Result<(Result<Plan, PlanError>, Duration)> {
-        self.run_within(planner, query, seed, self.config.max_planning_time)
+        self.run_through(planner, query, &[], seed)
     }
 
-    /// The any-angle reference every length ratio divides by: exact or nothing. It gets
-    /// [`REFERENCE_TIME`] (a measurement, not a robot waiting), and an answer the deadline cut
-    /// short (the string-pulled A* path, not the optimum) is no reference.
-    pub fn reference(&self, query: &Query) -> Result<Option<Plan>> {
+    /// [`Workspace::run`] through the points `via`, in order, before the query's goal, as
+    /// ComputePathThroughPoses plans (`solve_through`); with none, [`Workspace::run`].
+    pub fn run_through(
+        &self,
+        planner: PlannerName,
+        query: &Query,
+        via: &[Point2],
+        seed: u64,
+    ) -> Result<(Result<Plan, PlanError>, Duration)> {
+        self.run_within(planner, query, via, seed, self.config.max_planning_time)
+    }
+
+    /// The any-angle reference every length ratio divides by (through `via`, if any): exact or
+    /// nothing. It gets [`REFERENCE_TIME`] (a measurement, not a robot waiting), and an answer
+    /// the deadline cut short (the string-pulled A* path, not the optimum) is no reference.
+    pub fn reference(&self, query: &Query, via: &[Point2]) -> Result<Option<Plan>> {
         let own = self.config.max_planning_time;
         let budget = if own == 0.0 {
             0.0
         } else {
             REFERENCE_TIME.max(own)
         };
-        let (result, _) = self.run_within(PlannerName::AnyAngle, query, 0, budget)?;
+        let (result, _) = self.run_within(PlannerName::AnyAngle, query, via, 0, budget)?;
         Ok(result.ok().filter(|p| !p.stats.cut_short))
     }
 
-    /// [`Workspace::run`] with a time budget of `budget` s (0: none).
+    /// [`Workspace::run_through`] with a time budget of `budget` s (0: none) for each leg, as
+    /// the node gives each leg its `max_planning_time`.
     fn run_within(
         &self,
         planner: PlannerName,
         query: &Query,
+        via: &[Point2],
         seed: u64,
         budget: f64,
     ) -> Result<(Result<Plan, PlanError>, Duration)> {
@@ -101,15 +115,25 @@ impl Workspace {
         })?;
         let mut rng = PlannerRng::seed_from_u64(seed);
         let t0 = Instant::now();
-        let deadline = (budget > 0.0).then(|| t0 + Duration::from_secs_f64(budget));
-        let interrupt = move || {
-            deadline
-                .filter(|d| Instant::now() >= *d)
-                .map(|_| Interrupt::Deadline)
+        let leg_started = std::cell::Cell::new(t0);
+        let interrupt = || {
+            (budget > 0.0 && leg_started.get().elapsed() >= Duration::from_secs_f64(budget))
+                .then_some(Interrupt::Deadline)
         };
+        let on_leg = || leg_started.set(Instant::now());
         let mut ctx = PlanContext::new(&mut rng, &interrupt);
+        ctx.on_leg = Some(&on_leg);
         let options = self.config.solve_options();
-        let result = planner_core::solve(p.as_ref(), &self.grid, query, options, &mut ctx);
+        let goals: Vec<Point2> = via.iter().copied().chain([query.goal]).collect();
+        let result = planner_core::solve_through(
+            p.as_ref(),
+            &self.grid,
+            query.start,
+            &goals,
+            query.tolerance,
+            options,
+            &mut ctx,
+        );
         Ok((result, t0.elapsed()))
     }
 }
@@ -132,6 +156,10 @@ struct PlanOutput<'a> {
     time_ms: f64,
     reference_length_m: Option<f64>,
     goal: [f64; 2],
+    /// Where the path passes each via point (the point, or the free cell it was moved to);
+    /// absent without via points.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    via: Vec<[f64; 2]>,
     iterations: u64,
     evaluations: u64,
     cut_short: bool,
@@ -145,6 +173,11 @@ struct PlanOutput<'a> {
     /// The Pareto front (multi-objective planners): each member's length and turning.
     pareto: Vec<[f64; 2]>,
     waypoints: Vec<[f64; 2]>,
+}
+
+/// Points given as `[x, y]` (map metres).
+fn points(given: &[[f64; 2]]) -> Vec<Point2> {
+    given.iter().map(|&[x, y]| Point2::new(x, y)).collect()
 }
 
 /// What `plan` prints when the planner cannot answer: Nav2's ComputePathToPose result fields.
@@ -164,9 +197,12 @@ pub fn failure_line(e: &PlanError) -> String {
     format!("{} ({}): {e}", code.name(), code.number())
 }
 
+/// `patrol-plan plan`: one plan from `start` through each of `via` in order to `goal`.
+#[allow(clippy::too_many_arguments)]
 pub fn plan_command(
     map_path: &Path,
     start: [f64; 2],
+    via: &[[f64; 2]],
     goal: [f64; 2],
     planner: Option<PlannerName>,
     seed: Option<u64>,
@@ -178,7 +214,8 @@ pub fn plan_command(
     let seed = seed.or(config.seed).unwrap_or(0);
     let ws = Workspace::load(map_path, config)?;
     let query = ws.query(start, goal);
-    let (result, elapsed) = ws.run(planner, &query, seed)?;
+    let via = points(via);
+    let (result, elapsed) = ws.run_through(planner, &query, &via, seed)?;
     let plan = match result {
         Ok(plan) => plan,
         Err(e) => {
@@ -193,13 +230,18 @@ pub fn plan_command(
                 error_msg: e.to_string(),
             };
             out!("{}", serde_json::to_string(&out)?);
+            let through = match via.len() {
+                0 => String::new(),
+                1 => " through 1 via point".into(),
+                n => format!(" through {n} via points"),
+            };
             bail!(
-                "{planner} could not plan from {start:?} to {goal:?}: {}",
+                "{planner} could not plan from {start:?} to {goal:?}{through}: {}",
                 failure_line(&e)
             );
         }
     };
-    let reference = ws.reference(&query)?;
+    let reference = ws.reference(&query, &via)?;
     let out = PlanOutput {
         planner: plan.planner,
         seed,
@@ -214,6 +256,7 @@ pub fn plan_command(
         time_ms: elapsed.as_secs_f64() * 1e3,
         reference_length_m: reference.as_ref().map(|r| r.metrics.length_m),
         goal: [plan.goal.x, plan.goal.y],
+        via: plan.via.iter().map(|p| [p.x, p.y]).collect(),
         iterations: plan.stats.iterations,
         evaluations: plan.stats.evaluations,
         cut_short: plan.stats.cut_short,
@@ -237,6 +280,9 @@ pub fn plan_command(
         }
         drawing.add(Layer::path(plan.planner.as_str(), &plan.waypoints));
         drawing.add(Layer::endpoints(query.start, plan.goal));
+        if !plan.via.is_empty() {
+            drawing.add(Layer::via(&plan.via));
+        }
         if !plan.pareto.is_empty() {
             let front: Vec<[f64; 3]> = plan
                 .pareto
@@ -262,9 +308,13 @@ pub fn plan_command(
     Ok(())
 }
 
+/// `patrol-plan render`: each planner's plan from `start` through each of `via` to `goal`,
+/// drawn on one map.
+#[allow(clippy::too_many_arguments)]
 pub fn render_command(
     map_path: &Path,
     start: [f64; 2],
+    via: &[[f64; 2]],
     goal: [f64; 2],
     planners: &[PlannerName],
     seed: u64,
@@ -273,10 +323,11 @@ pub fn render_command(
 ) -> Result<()> {
     let ws = Workspace::load(map_path, load_config(config)?)?;
     let query = ws.query(start, goal);
+    let via = points(via);
     let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);
     let mut answered = 0;
     for name in planners {
-        match ws.run(*name, &query, seed)?.0 {
+        match ws.run_through(*name, &query, &via, seed)?.0 {
             Ok(plan) => {
                 answered += 1;
                 eprintln!(
@@ -292,6 +343,9 @@ pub fn render_command(
         }
     }
     drawing.add(Layer::endpoints(query.start, query.goal));
+    if !via.is_empty() {
+        drawing.add(Layer::via(&via));
+    }
     std::fs::write(out, drawing.to_svg()).with_context(|| format!("writing {}", out.display()))?;
     eprintln!("wrote {}", out.display());
     // The drawing still shows the map and the query, which is often why; but the command failed.

@@ -103,6 +103,54 @@ fn plan_prints_the_documented_json() {
     assert!(picture.starts_with("<svg") && picture.contains("<polyline"));
 }
 
+/// `plan --via`: one path through the via points in order, measured whole, with the any-angle
+/// reference through the same points; a via point in a cabinet is refused with its code.
+#[test]
+fn plan_goes_through_via_points_in_order() {
+    let map = shared("bench/datacenter_100.yaml");
+    let m = map.to_str().unwrap();
+    let plan = |planner: &str, via: &[&str]| {
+        let mut args = vec!["plan", "--map", m, "--start", "0.5,0.5", "--goal", "1,0.6"];
+        for v in via {
+            args.extend(["--via", v]);
+        }
+        args.extend(["--planner", planner]);
+        let (ok, stdout, stderr) = patrol_plan(&args);
+        (
+            ok,
+            serde_json::from_str::<serde_json::Value>(&stdout).unwrap(),
+            stderr,
+        )
+    };
+    let (ok, v, stderr) = plan("mocmcso", &["9,9", "0.5,9"]);
+    assert!(ok, "{stderr}");
+    assert_eq!(v["via"], serde_json::json!([[9.0, 9.0], [0.5, 9.0]]));
+    assert_eq!(v["collision_free"], true);
+    // Out to (9, 9), across to (0.5, 9) and back: at least the three straight legs.
+    let legs = 12.02 + 8.5 + 8.41;
+    let (len, reference) = (
+        v["length_m"].as_f64().unwrap(),
+        v["reference_length_m"].as_f64().unwrap(),
+    );
+    assert!(
+        reference >= legs && reference <= len,
+        "{reference} vs {len}"
+    );
+    let wp: Vec<[f64; 2]> = serde_json::from_value(v["waypoints"].clone()).unwrap();
+    let at = |p: [f64; 2]| {
+        wp.iter()
+            .position(|w| (w[0] - p[0]).hypot(w[1] - p[1]) < 1e-9)
+    };
+    let (first, second) = (at([9.0, 9.0]).unwrap(), at([0.5, 9.0]).unwrap());
+    assert!(first < second, "passed in order");
+    // Without via points there is none in the output.
+    let (ok, v, _) = plan("astar", &[]);
+    assert!(ok && v.get("via").is_none());
+    let (ok, v, stderr) = plan("astar", &["5.5,5.5"]);
+    assert!(!ok && v["error_code"] == 206, "{v}");
+    assert!(stderr.contains("through 1 via point"), "{stderr}");
+}
+
 /// A plan that cannot be made says why as Nav2 would: the code, its number and the reason, as
 /// JSON on stdout and in the error line, with a failing exit.
 #[test]
