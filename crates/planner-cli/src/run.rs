@@ -49,7 +49,14 @@ impl Workspace {
         Self::new(map, config)
     }
 
+    /// The planning grid of `map`, downsampled first by `costmap.downsampling_factor` (then
+    /// `map` is the downsampled map, cell for cell the grid's).
     pub fn new(map: GridMap, config: PlannerConfig) -> Result<Self> {
+        let coarse = match config.costmap.planning_map(&map, false)? {
+            std::borrow::Cow::Owned(coarse) => Some(coarse),
+            std::borrow::Cow::Borrowed(_) => None,
+        };
+        let map = coarse.unwrap_or(map);
         let grid = PlanningGrid::new(&map, &config.costmap)?;
         Ok(Self { map, grid, config })
     }

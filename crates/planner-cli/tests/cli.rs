@@ -443,3 +443,77 @@ fn a_full_disk_on_standard_output_is_an_error_not_a_panic() {
         "{stderr}"
     );
 }
+
+/// `costmap.downsampling_factor`: the plan is made on the coarser map, and on the map as it
+/// is it keeps clear of every obstacle by the inflated radius less the slack the factor
+/// documents ((factor - 1) / sqrt(2) fine cells).
+#[test]
+fn a_downsampled_map_gives_paths_clear_on_the_full_map() {
+    use planner_core::geometry::Point2;
+    use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
+    let map_path = shared("ros/nav2_warehouse/warehouse.yaml");
+    let dir = std::env::temp_dir().join(format!("patrol-plan-ds-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = dir.join("ds.yaml");
+    std::fs::write(
+        &config,
+        "patrol_planner:\n  ros__parameters:\n    costmap:\n      downsampling_factor: 2\n",
+    )
+    .unwrap();
+    let fine_map = planner_io::load_map(&map_path).unwrap();
+    let slack = 0.03 / std::f64::consts::SQRT_2;
+    let cfg = InflationConfig::default();
+    let fine = PlanningGrid::new(
+        &fine_map,
+        &InflationConfig {
+            safety_margin: cfg.safety_margin - slack - 1e-9,
+            ..cfg
+        },
+    )
+    .unwrap();
+    for planner in ["astar", "mocmcso"] {
+        let (ok, stdout, stderr) = patrol_plan(&[
+            "plan",
+            "--map",
+            map_path.to_str().unwrap(),
+            "--start=-10.585,-14.965",
+            "--goal=9.035,15.185",
+            "--planner",
+            planner,
+            "--config",
+            config.to_str().unwrap(),
+        ]);
+        assert!(ok, "{planner}: {stderr}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let wp: Vec<[f64; 2]> = serde_json::from_value(v["waypoints"].clone()).unwrap();
+        let on_fine: Vec<Point2> = wp
+            .iter()
+            .map(|&[x, y]| fine_map.info().world_to_grid(Point2::new(x, y)))
+            .collect();
+        assert!(
+            planner_core::grid::raycast::path_is_free(&fine, &on_fine),
+            "{planner}: the path crosses the full map's inflated band"
+        );
+        let length = v["length_m"].as_f64().unwrap();
+        assert!(length > 30.0, "{planner}: {length}");
+    }
+    // Planned on a quarter of the cells: A* expands well under half as many.
+    let expanded = |config: Option<&str>| {
+        let mut args = vec![
+            "plan",
+            "--map",
+            map_path.to_str().unwrap(),
+            "--start=-10.585,-14.965",
+            "--goal=9.035,15.185",
+            "--planner",
+            "astar",
+        ];
+        args.extend(config.map(|c| ["--config", c]).into_iter().flatten());
+        let (ok, stdout, stderr) = patrol_plan(&args);
+        assert!(ok, "{stderr}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        v["iterations"].as_u64().unwrap()
+    };
+    let (coarse, full) = (expanded(config.to_str()), expanded(None));
+    assert!(coarse * 10 < full * 4, "{coarse} against {full}");
+}

@@ -204,6 +204,8 @@ mod tests {
             ("inflation_radius", "1.0e9"),
             ("cost_scaling_factor", "1.0e308"),
             ("occupied_threshold", "0"),
+            ("downsampling_factor", "0"),
+            ("downsampling_factor", "17"),
         ] {
             let yaml = format!("costmap:\n  {key}: {value}\n");
             let config: PlannerConfig = serde_yaml::from_str(&yaml).unwrap();

@@ -74,8 +74,9 @@ pub const SETTINGS: &[Setting] = &[
         set: |c, v| c.search.cost_travel_multiplier = v,
         inflation_only: false,
     },
-    // Not `occupied_threshold` or `allow_unknown`: which cells are obstacles is the map's
-    // reading, set with it, as Nav2's static layer reads its thresholds once.
+    // Not `occupied_threshold`, `allow_unknown` or `downsampling_factor`: which cells are
+    // obstacles, and how many, is the map's reading, set with it, as Nav2's static layer reads
+    // its thresholds once.
     // The robot's radius is the potential field's chassis radius too (eq. 9 of the EAPF paper,
     // unless `apf.chassis_radius` is set), so it counts on a costmap topic as well.
     Setting {

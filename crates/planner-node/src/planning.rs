@@ -168,7 +168,19 @@ pub async fn install_map(
             if stale {
                 s.settings_changed.notify_one();
             }
-            log::log!(level, "map from {source}: {w} x {h} cells");
+            let grid = state.grid.info();
+            if (grid.width, grid.height) == (w, h) {
+                log::log!(level, "map from {source}: {w} x {h} cells");
+            } else {
+                log::log!(
+                    level,
+                    "map from {source}: {w} x {h} cells, planned on as {} x {} of {} m \
+                     (costmap.downsampling_factor)",
+                    grid.width,
+                    grid.height,
+                    grid.resolution
+                );
+            }
             Some(state)
         }
         Ok(Err(e)) => {

@@ -13,6 +13,7 @@ use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
 use planner_core::params::ParamError;
 use planner_core::PlannerName;
 use planner_io::parameters::NodeParams;
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::{Arc, Mutex, RwLock, Weak};
 use std::time::Instant;
@@ -34,6 +35,10 @@ pub struct Live {
 /// as costmap_2d re-inflates its master grid when its inflation parameters change.
 pub struct MapState {
     pub grid: PlanningGrid,
+    /// The map as it arrived.
+    source: Arc<GridMap>,
+    /// The map the grid was made from: `source`, or `source` downsampled
+    /// (`costmap.downsampling_factor`), cell for cell the grid's.
     map: Arc<GridMap>,
     /// The map is a costmap, taken as it is: only `allow_unknown` reads it.
     as_costmap: bool,
@@ -43,12 +48,18 @@ pub struct MapState {
 
 impl MapState {
     /// Makes `map`'s planning grid: the node's inflation of it by `costmap`, or, with
-    /// `as_costmap`, the map as a costmap (already inflated and graded).
+    /// `as_costmap`, the map as a costmap (already inflated and graded); either downsampled
+    /// first by `costmap.downsampling_factor`.
     pub fn new(
-        map: Arc<GridMap>,
+        source: Arc<GridMap>,
         as_costmap: bool,
         costmap: &InflationConfig,
     ) -> Result<Self, ParamError> {
+        costmap.validate()?;
+        let map = match costmap.planning_map(&source, as_costmap)? {
+            Cow::Borrowed(_) => source.clone(),
+            Cow::Owned(coarse) => Arc::new(coarse),
+        };
         let grid = if as_costmap {
             PlanningGrid::from_costmap(&map, costmap.allow_unknown)
         } else {
@@ -56,6 +67,7 @@ impl MapState {
         };
         Ok(Self {
             grid,
+            source,
             map,
             as_costmap,
             made_with: costmap.clone(),
@@ -66,19 +78,20 @@ impl MapState {
     pub fn is_made_with(&self, costmap: &InflationConfig) -> bool {
         if self.as_costmap {
             self.made_with.allow_unknown == costmap.allow_unknown
+                && self.made_with.downsampling_factor == costmap.downsampling_factor
         } else {
             self.made_with == *costmap
         }
     }
 
-    /// The map the grid was made from.
+    /// The map the grid was made from (downsampled, if it was).
     pub fn map(&self) -> &GridMap {
         &self.map
     }
 
     /// The same map's grid made with `costmap`.
     pub fn remade(&self, costmap: &InflationConfig) -> Result<Self, ParamError> {
-        Self::new(self.map.clone(), self.as_costmap, costmap)
+        Self::new(self.source.clone(), self.as_costmap, costmap)
     }
 }
 
@@ -573,6 +586,38 @@ mod tests {
         let state = MapState::new(Arc::new(map), as_costmap, &costmap).unwrap();
         *s.map.write().unwrap() = Some(Arc::new(state));
         s
+    }
+
+    #[test]
+    fn a_downsampled_grid_is_made_again_from_the_map_as_it_arrived() {
+        let costmap = InflationConfig {
+            downsampling_factor: 2,
+            ..InflationConfig::default()
+        };
+        let state = MapState::new(Arc::new(wall_map()), false, &costmap).unwrap();
+        assert_eq!((state.map().width(), state.map().height()), (20, 5));
+        assert_eq!((state.grid.width(), state.grid.height()), (20, 5));
+        assert!((state.grid.resolution() - 0.2).abs() < 1e-12);
+        // The wall (column 0) is in the coarse column 0: inflated by 0.45 m between coarse
+        // centres, the coarse cell 0.4 m from it is blocked and the one 0.6 m from it free.
+        assert!(!state.grid.is_free(Cell::new(2, 2)) && state.grid.is_free(Cell::new(3, 2)));
+        assert_eq!(state.map().value(Cell::new(0, 2)), 100);
+        let wider = InflationConfig {
+            safety_margin: 0.6,
+            ..costmap.clone()
+        };
+        let remade = state.remade(&wider).unwrap();
+        assert_eq!(
+            remade.map().width(),
+            20,
+            "made from the map as it arrived, not downsampled twice"
+        );
+        assert!(state.is_made_with(&costmap) && !state.is_made_with(&wider));
+        assert!(!state.is_made_with(&InflationConfig::default()));
+        // A costmap is downsampled too, and its factor read like its allow_unknown.
+        let as_costmap = MapState::new(Arc::new(wall_map()), true, &costmap).unwrap();
+        assert_eq!(as_costmap.grid.width(), 20);
+        assert!(!as_costmap.is_made_with(&InflationConfig::default()));
     }
 
     #[test]

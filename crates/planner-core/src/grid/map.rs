@@ -211,6 +211,48 @@ impl GridMap {
     pub fn value(&self, c: Cell) -> i8 {
         self.data[self.info.index(c)]
     }
+
+    /// The map at `factor` times its resolution, as Nav2's Smac planners downsample their
+    /// costmap (`downsampling_factor`) to plan on large maps: each block of `factor x factor`
+    /// cells becomes one cell holding the block's worst value, so nothing the robot must avoid
+    /// is lost. Worst first: an obstacle (a value at or above `obstacle_at`; the block keeps the
+    /// highest), then unknown, then the highest free value. Same origin; the blocks along the
+    /// far edges take the cells there are. Factor 1 (or 0) is the map itself.
+    pub fn downsampled(&self, factor: u32, obstacle_at: i8) -> Result<GridMap, MapError> {
+        if factor <= 1 {
+            return Ok(self.clone());
+        }
+        let (w, h) = (self.info.width, self.info.height);
+        let info = MapInfo {
+            width: w.div_ceil(factor),
+            height: h.div_ceil(factor),
+            resolution: self.info.resolution * factor as f64,
+            origin: self.info.origin,
+        };
+        // A rank per value, worst highest: obstacles above unknown above free.
+        let rank = |v: i8| -> i16 {
+            if v >= obstacle_at {
+                300 + v as i16
+            } else if v == UNKNOWN {
+                200
+            } else {
+                v as i16
+            }
+        };
+        let mut data = vec![0i8; info.cell_count()];
+        let (k, w, h) = (factor as usize, w as usize, h as usize);
+        for (by, row) in data.chunks_mut(info.width as usize).enumerate() {
+            for (bx, out) in row.iter_mut().enumerate() {
+                let (x0, y0) = (bx * k, by * k);
+                let worst = (y0..(y0 + k).min(h))
+                    .flat_map(|y| &self.data[y * w + x0..y * w + (x0 + k).min(w)])
+                    .copied()
+                    .max_by_key(|&v| rank(v));
+                *out = worst.expect("every block holds at least one cell");
+            }
+        }
+        GridMap::new(info, data)
+    }
 }
 
 #[cfg(test)]
@@ -224,6 +266,35 @@ mod tests {
             resolution: 0.05,
             origin: Pose2::default(),
         }
+    }
+
+    #[test]
+    fn a_downsampled_map_keeps_each_blocks_worst_cell() {
+        // 5 x 3 at 0.05 m, by 2: 3 x 2 blocks, the last column and row partial.
+        #[rustfmt::skip]
+        let data = vec![
+            0, -1, -1, 0, 0,
+            0, 70, 0, 0, 5,
+            -1, 0, 0, 0, 100,
+        ];
+        let map = GridMap::new(info(5, 3), data).unwrap();
+        let coarse = map.downsampled(2, 65).unwrap();
+        assert_eq!((coarse.width(), coarse.height()), (3, 2));
+        assert!((coarse.info().resolution - 0.1).abs() < 1e-12);
+        assert_eq!(coarse.info().origin, map.info().origin);
+        // An obstacle beats unknown and free; unknown beats free; else the highest free value.
+        assert_eq!(coarse.data(), &[70, -1, 5, -1, 0, 100]);
+        // Below the threshold 70 is a free value, and unknown beats it.
+        assert_eq!(map.downsampled(2, 80).unwrap().data()[0], -1);
+        assert_eq!(map.downsampled(1, 65).unwrap(), map);
+        // Too coarse a resolution is refused as any map's would be.
+        let mut wide = info(4, 4);
+        wide.resolution = 60.0;
+        let wide = GridMap::new(wide, vec![0; 16]).unwrap();
+        assert!(matches!(
+            wide.downsampled(2, 65),
+            Err(MapError::BadResolution(_))
+        ));
     }
 
     #[test]
