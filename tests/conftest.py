@@ -121,6 +121,28 @@ class Ros:
 
         self.spin_until(planned, timeout, "a plan to the goal")
 
+    def wait_action_answers(self, client, probe, what, timeout=45):
+        """Waits until `client`'s goals are answered: sends the goal `probe` (one the node
+        refuses at once without touching the robot) until its acceptance arrives, then waits for
+        its result. `server_is_ready` says the client's requests reach the server, not that the
+        server's replies reach the client: a goal sent in between is run by the node, but its
+        acceptance is lost and the client waits for ever (seen 2 of 7 runs of test_navigate)."""
+        deadline = time.time() + timeout
+        self.spin_until(lambda: client.server_is_ready(), timeout, what)
+        while time.time() < deadline:
+            sent = client.send_goal_async(probe)
+            asked = time.time()
+            while not sent.done() and time.time() - asked < 3.0:
+                self.executor.spin_once(timeout_sec=0.05)
+            if not sent.done():
+                continue  # its acceptance was lost: ask again
+            handle = sent.result()
+            if handle.accepted:
+                result = handle.get_result_async()
+                self.spin_until(result.done, 30, f"{what}: the probe goal's result")
+            return
+        raise AssertionError(f"timed out after {timeout} s waiting for {what} to answer a goal")
+
     def spin_for(self, seconds):
         deadline = time.time() + seconds
         while time.time() < deadline:

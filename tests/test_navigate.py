@@ -43,7 +43,7 @@ def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_doe
         ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
         ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         client = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
-        ros.spin_until(lambda: client.server_is_ready(), 45, "the navigate_to_pose action")
+        ros.wait_action_answers(client, NavigateToPose.Goal(pose=stamped(*NEAR, frame="nowhere")), "the navigate_to_pose action")
 
         def send(x, y, yaw, feedback=None):
             goal = NavigateToPose.Goal(pose=stamped(x, y, yaw))
@@ -122,7 +122,9 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         ros.node.create_subscription(Path, "/plan", plans.append, 10)
         ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         client = ActionClient(ros.node, NavigateThroughPoses, "navigate_through_poses")
-        ros.spin_until(lambda: client.server_is_ready(), 45, "the navigate_through_poses action")
+        ros.wait_action_answers(client, NavigateThroughPoses.Goal(poses=[]), "the navigate_through_poses action")
+        to_pose = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
+        ros.wait_action_answers(to_pose, NavigateToPose.Goal(pose=stamped(*NEAR, frame="nowhere")), "the navigate_to_pose action")
 
         def send(poses, feedback=None):
             goal = NavigateThroughPoses.Goal(poses=poses)
@@ -163,8 +165,6 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         # One navigation at a time, as bt_navigator: a navigate_to_pose goal while the route
         # is driven ends at once, aborted with error code 0, and the route goes on to its end;
         # once it has ended, navigate_to_pose is served again.
-        to_pose = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
-        ros.spin_until(lambda: to_pose.server_is_ready(), 45, "the navigate_to_pose action")
 
         def result_of(client, goal, what):
             sent = client.send_goal_async(goal)
