@@ -5,7 +5,7 @@ use crate::render::{Drawing, Layer};
 use anyhow::{bail, Context, Result};
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::Point2;
-use planner_core::grid::inflation::PlanningGrid;
+use planner_core::grid::inflation::{planning_grid, PlanningGrid};
 use planner_core::grid::GridMap;
 use planner_core::planner::{
     Interrupt, Plan, PlanContext, PlanError, PlannerRng, Query, Termination,
@@ -14,6 +14,7 @@ use planner_core::{registry, PlannerName};
 use planner_io::result_code::ResultCode;
 use rand::SeedableRng;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -49,15 +50,14 @@ impl Workspace {
         Self::new(map, config)
     }
 
-    /// The planning grid of `map`, downsampled first by `costmap.downsampling_factor` (then
-    /// `map` is the downsampled map, cell for cell the grid's).
+    /// The planning grid of `map`, downsampled by `costmap.downsampling_factor` after it is
+    /// inflated (then `map` is the downsampled map, cell for cell the grid's).
     pub fn new(map: GridMap, config: PlannerConfig) -> Result<Self> {
-        let coarse = match config.costmap.planning_map(&map, false)? {
-            std::borrow::Cow::Owned(coarse) => Some(coarse),
-            std::borrow::Cow::Borrowed(_) => None,
+        let (coarse, grid) = match planning_grid(&map, &config.costmap, false)? {
+            (Cow::Owned(coarse), grid) => (Some(coarse), grid),
+            (Cow::Borrowed(_), grid) => (None, grid),
         };
         let map = coarse.unwrap_or(map);
-        let grid = PlanningGrid::new(&map, &config.costmap)?;
         Ok(Self { map, grid, config })
     }
 

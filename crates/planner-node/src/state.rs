@@ -9,6 +9,7 @@ use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav_msgs::Path;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
+use planner_core::grid::inflation::planning_grid;
 use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
 use planner_core::params::ParamError;
 use planner_core::PlannerName;
@@ -55,15 +56,9 @@ impl MapState {
         as_costmap: bool,
         costmap: &InflationConfig,
     ) -> Result<Self, ParamError> {
-        costmap.validate()?;
-        let map = match costmap.planning_map(&source, as_costmap)? {
-            Cow::Borrowed(_) => source.clone(),
-            Cow::Owned(coarse) => Arc::new(coarse),
-        };
-        let grid = if as_costmap {
-            PlanningGrid::from_costmap(&map, costmap.allow_unknown)
-        } else {
-            PlanningGrid::new(&map, costmap)?
+        let (map, grid) = match planning_grid(&source, costmap, as_costmap)? {
+            (Cow::Borrowed(_), grid) => (source.clone(), grid),
+            (Cow::Owned(coarse), grid) => (Arc::new(coarse), grid),
         };
         Ok(Self {
             grid,

@@ -10,7 +10,7 @@
 //! blocked when an obstacle cell's centre lies within `robot_radius + safety_margin` of its centre.
 
 use crate::geometry::{Cell, NEIGHBOURS_8};
-use crate::grid::map::{GridMap, MapInfo, UNKNOWN};
+use crate::grid::map::{GridMap, MapError, MapInfo, UNKNOWN};
 use crate::params::{check, ParamError, Range};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -39,14 +39,14 @@ pub struct InflationConfig {
     /// How fast the cost falls with distance (1/m), costmap_2d's `cost_scaling_factor`.
     /// Default 2.58.
     pub cost_scaling_factor: f64,
-    /// Plan on the map at this many times its resolution, as Nav2's Smac planners do with
-    /// `downsample_costmap` and `downsampling_factor`: each block of cells becomes one holding
-    /// the block's worst value ([`GridMap::downsampled`]), and the grid is inflated and graded
-    /// from that, in metres as before. Every planner's work grows with the cells it searches,
-    /// so 2 makes a 16 M-cell map at 0.05 m a 4 M-cell one at 0.1 m. A coarse cell is free when
-    /// its centre is `radius()` from every coarse obstacle cell's centre, so an obstacle may
-    /// come up to `(factor - 1) / sqrt(2)` fine cells nearer than that (3.5 cm at 0.05 m and 2);
-    /// the safety margin takes it. 1: the map as it is (default); at most 16.
+    /// Plan on the map at this many times its cell size, as Nav2's Smac planners do with
+    /// `downsample_costmap` and `downsampling_factor`: the map is inflated and graded at its
+    /// own resolution, then each block of cells becomes one, blocked if any of its cells is,
+    /// costing its highest cost ([`planning_grid`], [`PlanningGrid::downsampled`]). Every
+    /// planner's work grows with the cells it searches, so 2 makes a 16 M-cell map at 0.05 m
+    /// a 4 M-cell one at 0.1 m. A path free on the coarse grid is free on the full one: it
+    /// gives up cells (a gap just wide enough may close), never clearance. 1: the map as it
+    /// is (default); at most 16.
     pub downsampling_factor: u32,
 }
 
@@ -130,27 +130,42 @@ impl InflationConfig {
         }
         Ok(())
     }
+}
 
-    /// The map the planning grid is made from: `map` downsampled by `downsampling_factor`
-    /// (borrowed as it is at 1). A costmap (`as_costmap`) keeps its inscribed and lethal cells
-    /// (99, 100) as its obstacles; a raw map its cells at or above `occupied_threshold`.
-    pub fn planning_map<'a>(
-        &self,
-        map: &'a GridMap,
-        as_costmap: bool,
-    ) -> Result<Cow<'a, GridMap>, ParamError> {
-        if self.downsampling_factor <= 1 {
-            return Ok(Cow::Borrowed(map));
-        }
-        let obstacle_at = if as_costmap {
-            99
-        } else {
-            self.occupied_threshold
-        };
-        map.downsampled(self.downsampling_factor, obstacle_at)
-            .map(Cow::Owned)
-            .map_err(|e| ParamError::new("downsampling_factor", e.to_string()))
+/// `map`'s planning grid and the map it is drawn and published with, cell for cell: the
+/// node's inflation of `map` by `cfg` (or, with `as_costmap`, the map taken as a costmap,
+/// already inflated and graded), downsampled by `cfg.downsampling_factor` as Nav2's Smac
+/// planners downsample their inflated costmap ([`PlanningGrid::downsampled`]): the inflation is
+/// made at the map's own resolution first, so a path free on the coarse grid is free on the
+/// full one. The map comes back borrowed at factor 1, downsampled alike otherwise
+/// ([`GridMap::downsampled`]: a costmap's inscribed and lethal cells, 99 and 100, or a raw map's
+/// cells at or above `occupied_threshold`, count as its obstacles).
+pub fn planning_grid<'a>(
+    map: &'a GridMap,
+    cfg: &InflationConfig,
+    as_costmap: bool,
+) -> Result<(Cow<'a, GridMap>, PlanningGrid), ParamError> {
+    cfg.validate()?;
+    let full = if as_costmap {
+        PlanningGrid::from_costmap(map, cfg.allow_unknown)
+    } else {
+        PlanningGrid::new(map, cfg)?
+    };
+    let factor = cfg.downsampling_factor;
+    if factor <= 1 {
+        return Ok((Cow::Borrowed(map), full));
     }
+    let obstacle_at = if as_costmap {
+        99
+    } else {
+        cfg.occupied_threshold
+    };
+    let refused = |e: MapError| ParamError::new("downsampling_factor", e.to_string());
+    let coarse_map = map.downsampled(factor, obstacle_at).map_err(refused)?;
+    Ok((
+        Cow::Owned(coarse_map),
+        full.downsampled(factor).map_err(refused)?,
+    ))
 }
 
 /// The cost model by squared clearance in cells, as costmap_2d's inflation layer caches its costs
@@ -374,18 +389,68 @@ impl PlanningGrid {
             .iter()
             .map(|&v| v >= 100 || (v == UNKNOWN && !allow_unknown))
             .collect();
-        let mut grid = Self::from_obstacles(*map.info(), lethal, 0.0);
-        let w = grid.width();
-        for (i, &v) in data.iter().enumerate() {
-            if v == 99 {
-                grid.padded_free[(i / w + 1) * (w + 2) + i % w + 1] = false;
-            }
+        let costs = data.iter().map(|&v| cost_from_occupancy(v)).collect();
+        Self::from_obstacles(*map.info(), lethal, 0.0).with_own_costs(|i| data[i] == 99, costs)
+    }
+
+    /// The grid at `factor` times its cell size, as Nav2's Smac planners downsample their
+    /// inflated costmap (`downsampling_factor`): a coarse cell is an obstacle when its block
+    /// holds one, is blocked when it holds a blocked cell or reaches past the map's edge, and
+    /// costs its block's highest cost. So every cell inside a free coarse cell is free here,
+    /// and a path free on the coarse grid is free on this one: downsampling gives up cells,
+    /// never clearance. Clearances are then measured to the coarse obstacle cells, up to half
+    /// a coarse cell's diagonal off. The costs are kept as they are (as a costmap's are).
+    pub fn downsampled(&self, factor: u32) -> Result<Self, MapError> {
+        let (w, h) = (self.width(), self.height());
+        let info = MapInfo {
+            width: self.info.width.div_ceil(factor),
+            height: self.info.height.div_ceil(factor),
+            resolution: self.info.resolution * factor as f64,
+            origin: self.info.origin,
+        };
+        info.validate(u64::MAX)?;
+        let (k, cw) = (factor as usize, info.width as usize);
+        let blocks = |i: usize| {
+            let (x0, y0) = ((i % cw) * k, (i / cw) * k);
+            let whole = x0 + k <= w && y0 + k <= h;
+            let cells =
+                (y0..(y0 + k).min(h)).flat_map(move |y| (x0..(x0 + k).min(w)).map(move |x| (x, y)));
+            (whole, cells)
+        };
+        let n = info.cell_count();
+        let lethal: Vec<bool> = (0..n)
+            .map(|i| blocks(i).1.any(|(x, y)| self.clearance2[y * w + x] == 0))
+            .collect();
+        let blocked: Vec<bool> = (0..n)
+            .map(|i| {
+                let (whole, mut cells) = blocks(i);
+                !whole || cells.any(|(x, y)| !self.is_free(Cell::new(x as i32, y as i32)))
+            })
+            .collect();
+        let costs = (0..n)
+            .map(|i| {
+                let (whole, cells) = blocks(i);
+                let highest = cells.map(|(x, y)| self.costs[y * w + x]).max();
+                // A block cut by the map's edge is blocked, so at least inscribed.
+                let floor = if whole { 0 } else { INSCRIBED };
+                highest.unwrap_or(LETHAL).max(floor)
+            })
+            .collect();
+        Ok(Self::from_obstacles(info, lethal, 0.0).with_own_costs(|i| blocked[i], costs))
+    }
+
+    /// This grid with cells `blocked(i)` blocked as well and `costs` as its own (a costmap's,
+    /// not a model's).
+    fn with_own_costs(mut self, blocked: impl Fn(usize) -> bool, costs: Vec<u8>) -> Self {
+        let w = self.width();
+        for i in (0..self.info.cell_count()).filter(|&i| blocked(i)) {
+            self.padded_free[(i / w + 1) * (w + 2) + i % w + 1] = false;
         }
-        grid.blocked_sums = blocked_sums(w, grid.height(), &grid.padded_free);
-        grid.costs = data.iter().map(|&v| cost_from_occupancy(v)).collect();
-        grid.cost_model = None;
-        grid.free_by_cost = cost_says_free(&grid.costs, &grid.padded_free, w);
-        grid
+        self.blocked_sums = blocked_sums(w, self.height(), &self.padded_free);
+        self.costs = costs;
+        self.cost_model = None;
+        self.free_by_cost = cost_says_free(&self.costs, &self.padded_free, w);
+        self
     }
 
     /// The same grid with another cost model (a costmap keeps its own costs).
@@ -1006,6 +1071,46 @@ mod tests {
         // The nearest free cells are sqrt(5) away; the first in scan order wins.
         assert_eq!(g.nearest_free(Cell::new(4, 4), 3.0), Some(Cell::new(3, 2)));
         assert_eq!(g.nearest_free(Cell::new(4, 4), 2.0), None);
+    }
+
+    /// Downsampling gives up cells, never clearance: on random maps (sizes no multiple of the
+    /// factor, obstacles grown at full resolution), every fine cell inside a free coarse cell is
+    /// free, a coarse cell costs at least each of its cells, and it is an obstacle exactly when
+    /// its block holds one.
+    #[test]
+    fn a_downsampled_grid_frees_only_cells_free_at_full_resolution() {
+        use crate::test_support::{grid_with, rng};
+        use rand::Rng;
+        let mut r = rng(21);
+        for _ in 0..6 {
+            let (w, h) = (r.random_range(20..41), r.random_range(20..41));
+            let obstacle: Vec<bool> = (0..w * h).map(|_| r.random_bool(0.02)).collect();
+            let fine = grid_with((w, h), 0.05, 0.12, |x, y| obstacle[y * w + x]);
+            for factor in [2u32, 3, 4] {
+                let k = factor as i32;
+                let coarse = fine.downsampled(factor).unwrap();
+                assert_eq!(coarse.info().resolution, 0.05 * factor as f64);
+                assert_eq!(coarse.width(), w.div_ceil(factor as usize));
+                for cy in 0..coarse.height() as i32 {
+                    for cx in 0..coarse.width() as i32 {
+                        let c = Cell::new(cx, cy);
+                        let block: Vec<Cell> = (0..k * k)
+                            .map(|i| Cell::new(cx * k + i % k, cy * k + i / k))
+                            .collect();
+                        if coarse.is_free(c) {
+                            assert!(block.iter().all(|&f| fine.is_free(f)), "{c:?} x{factor}");
+                        }
+                        let in_map: Vec<Cell> = block
+                            .into_iter()
+                            .filter(|f| (f.x as usize) < w && (f.y as usize) < h)
+                            .collect();
+                        assert!(in_map.iter().all(|&f| coarse.cost(c) >= fine.cost(f)));
+                        let holds_obstacle = in_map.iter().any(|&f| fine.clearance(f) == 0.0);
+                        assert_eq!(coarse.clearance(c) == 0.0, holds_obstacle, "{c:?}");
+                    }
+                }
+            }
+        }
     }
 
     /// The ring search equals the plain scan of the whole square (the old implementation) on
