@@ -12,7 +12,7 @@ path through every pose in order, published on /plan, driven to the last pose, w
 feedback's number_of_poses_remaining counting the poses down; a route back to where the car
 stands is driven round, not taken as done; a navigate_to_pose goal while a route is driven
 is refused (aborted, error code 0) and the route goes on, as bt_navigator's navigators share the
-robot; no poses is NO_VIAPOINTS_GIVEN (309), more than 500
+robot, and so is a /goal_pose (BUSY on /diagnostics), which bt_navigator turns into one; no poses is NO_VIAPOINTS_GIVEN (309), more than 500
 UNKNOWN (300), a pose in an unknown frame TF_ERROR (302) naming the pose."""
 import math
 
@@ -125,6 +125,7 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         ros.wait_action_answers(client, NavigateThroughPoses.Goal(poses=[]), "the navigate_through_poses action")
         to_pose = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
         ros.wait_action_answers(to_pose, NavigateToPose.Goal(pose=stamped(*NEAR, frame="nowhere")), "the navigate_to_pose action")
+        ros.wait_matched(ros.goal_pub, "/goal_pose")
 
         def send(poses, feedback=None):
             goal = NavigateThroughPoses.Goal(poses=poses)
@@ -181,6 +182,12 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         o = other.result()
         assert o.status == GoalStatus.STATUS_ABORTED and o.result.error_code == 0, (o.status, o.result)
         assert "navigate_through_poses is navigating" in o.result.error_msg, o.result.error_msg
+        # A /goal_pose (RViz's click), which bt_navigator turns into a navigate_to_pose goal, is
+        # refused alike: BUSY on /diagnostics, and the route goes on.
+        at = len(ros.diagnostics)
+        ros.goal_pub.publish(stamped(1.0, 0.5, math.pi))
+        _, message, _ = ros.wait_code(at, "BUSY")
+        assert "navigate_through_poses is navigating" in message, message
         ros.spin_until(route.done, 120, "the route's result")
         r = route.result()
         assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"

@@ -36,6 +36,9 @@ pub enum ResultCode {
     NotActive = 294,
     /// The plan would need more working memory on this map than `max_plan_memory_mb` allows.
     TooLarge = 295,
+    /// A `/goal_pose` while `navigate_through_poses` drives: one navigation at a time, as
+    /// bt_navigator, whose `navigate_to_pose` navigator the muxer refuses then.
+    Busy = 296,
 }
 
 impl ResultCode {
@@ -63,6 +66,7 @@ impl ResultCode {
             ResultCode::Cancelled => "CANCELLED",
             ResultCode::NotActive => "NOT_ACTIVE",
             ResultCode::TooLarge => "TOO_LARGE",
+            ResultCode::Busy => "BUSY",
         }
     }
 }

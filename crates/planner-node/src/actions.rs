@@ -82,6 +82,7 @@ pub fn nav2_code(code: ResultCode, base: u16) -> u16 {
         | ResultCode::NoMap
         | ResultCode::NotActive
         | ResultCode::TooLarge
+        | ResultCode::Busy
         | ResultCode::Cancelled => 0,
         ResultCode::InvalidPlanner => 1,
         ResultCode::TfError | ResultCode::NoStartPose => 2,

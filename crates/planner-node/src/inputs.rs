@@ -4,6 +4,7 @@
 //! (maps, goals) or logged (poses, transforms), and the task goes on.
 
 use crate::convert;
+use crate::navigate::NavigateGoal;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
@@ -11,6 +12,7 @@ use crate::state::{path_length, GoalRequest, GoalSlot, MapState, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
+use patrol_msgs::nav2_msgs::NavigateToPoseGoal;
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
@@ -298,9 +300,22 @@ pub async fn receive_goals(
         let Ok((msg, _)) = sub.async_take().await else {
             continue;
         };
-        match s.pose_in_global(&msg) {
-            Ok(goal) => {
-                let owner = s.take_robot();
+        // bt_navigator hands a /goal_pose to its navigate_to_pose navigator: it preempts a
+        // navigate_to_pose goal and is refused while navigate_through_poses drives.
+        let owner = s.pose_in_global(&msg).and_then(|goal| {
+            let owner = s.take_robot_as(NavigateToPoseGoal::NAME).map_err(|other| {
+                Failure::new(
+                    ResultCode::Busy,
+                    format!(
+                        "/goal_pose refused: {other} is navigating: one navigation at a time, \
+                         as bt_navigator; cancel it first"
+                    ),
+                )
+            })?;
+            Ok((owner, goal))
+        });
+        match owner {
+            Ok((owner, goal)) => {
                 // Fails only when the planning task has ended, i.e. during shutdown.
                 let _ = slot.send(Some(GoalRequest {
                     owner,
@@ -309,6 +324,7 @@ pub async fn receive_goals(
                 }));
             }
             Err(f) => {
+                warn!("{}", f.message);
                 let planner = s.live.read().expect("lock").planner;
                 o.diagnose(&s, &Outcome::failed(planner, 0, f)).await
             }

@@ -8,8 +8,9 @@
 //! through-poses, the poses still ahead. A newer goal of the same action preempts the running
 //! one (aborted), a client's cancel stops the robot (canceled); a goal of the other navigate
 //! action while one navigates is refused (aborted, error code 0) and the running one goes on,
-//! as bt_navigator's navigators share it. `/goal_pose` and `follow_waypoints` take the robot
-//! from either. A failure carries the code of the step that failed, as bt_navigator reports
+//! as bt_navigator's navigators share it. A `/goal_pose` counts as a `navigate_to_pose` goal,
+//! as bt_navigator turns it into one: it preempts that action's goal and is refused (BUSY on
+//! `/diagnostics`) while a route drives. `follow_waypoints` takes the robot from either. A failure carries the code of the step that failed, as bt_navigator reports
 //! it: the planner's (ComputePathToPose's 2xx, ComputePathThroughPoses' 3xx) or the
 //! controller's FAILED_TO_MAKE_PROGRESS (105) for a plan not driven within its time.
 //! `behavior_tree` names one of bt_navigator's trees; this node has none, and says so in its
@@ -205,7 +206,9 @@ async fn navigate<G: NavigateGoal>(
         async move { feedback.send(message).await }
     };
     // One navigator at a time, as bt_navigator: while the other navigate action drives, this
-    // goal ends at once, aborted with no error code, as bt_navigator terminates it.
+    // goal ends at once, aborted with no error code, as bt_navigator terminates it. Unlike
+    // bt_navigator (whose muxer is asked first), the goal is checked before: claiming the
+    // navigator takes the robot, and a goal that cannot be driven must not stop the drive.
     let mine = match s.start_navigating(name) {
         Ok(mine) => Navigating { s, mine },
         Err(other) => {

@@ -276,18 +276,35 @@ impl Shared {
     /// action is navigating: then `Err` names it. One navigator at a time, as bt_navigator's
     /// navigators share it (`NavigatorMuxer`): a goal of the other one is refused and the
     /// running one goes on; a newer goal of the same action preempts it (action_server.rs). A
-    /// navigator whose goal has lost the robot (to `/goal_pose` or `follow_waypoints`, which
-    /// are not bt_navigator's navigators here) no longer counts. End with
+    /// navigator whose goal has lost the robot (to a `/goal_pose` it allowed, or to
+    /// `follow_waypoints`, not one of bt_navigator's navigators) no longer counts. End with
     /// [`Shared::done_navigating`].
     pub fn start_navigating(&self, name: &'static str) -> Result<u64, &'static str> {
         let mut navigator = self.navigator.lock().expect("lock");
+        let owner = self.take_robot_unless_other(&navigator, name)?;
+        *navigator = Some((name, owner));
+        Ok(owner)
+    }
+
+    /// Takes the robot for a goal that bt_navigator hands to its navigator `name` without
+    /// making it a navigation of its own here (a `/goal_pose`, which bt_navigator sends to its
+    /// `navigate_to_pose`): refused, `Err` naming the other, while the other navigate action is
+    /// navigating; a running goal of `name` itself loses the robot to it, as a preempt.
+    pub fn take_robot_as(&self, name: &'static str) -> Result<u64, &'static str> {
+        let navigator = self.navigator.lock().expect("lock");
+        self.take_robot_unless_other(&navigator, name)
+    }
+
+    /// The robot for a goal of `name`, unless another navigator is navigating; the caller holds
+    /// the navigator's lock, so no other navigation can start in between.
+    fn take_robot_unless_other(
+        &self,
+        navigator: &Option<(&'static str, u64)>,
+        name: &'static str,
+    ) -> Result<u64, &'static str> {
         match *navigator {
             Some((other, owner)) if other != name && self.owns_robot(owner) => Err(other),
-            _ => {
-                let owner = self.take_robot();
-                *navigator = Some((name, owner));
-                Ok(owner)
-            }
+            _ => Ok(self.take_robot()),
         }
     }
 
@@ -593,8 +610,8 @@ mod tests {
         assert_eq!((state.map().width(), state.map().height()), (20, 5));
         assert_eq!((state.grid.width(), state.grid.height()), (20, 5));
         assert!((state.grid.resolution() - 0.2).abs() < 1e-12);
-        // The wall (column 0) is in the coarse column 0: inflated by 0.45 m between coarse
-        // centres, the coarse cell 0.4 m from it is blocked and the one 0.6 m from it free.
+        // The wall (column 0) is inflated by 0.45 m at full resolution (columns 1-4 blocked),
+        // then downsampled: coarse column 2 (columns 4-5) is blocked, column 3 (6-7) free.
         assert!(!state.grid.is_free(Cell::new(2, 2)) && state.grid.is_free(Cell::new(3, 2)));
         assert_eq!(state.map().value(Cell::new(0, 2)), 100);
         let wider = InflationConfig {
@@ -766,10 +783,20 @@ mod tests {
         assert!(s.start_navigating("navigate_to_pose").is_err());
         s.done_navigating(newer);
         let pose = s.start_navigating("navigate_to_pose").unwrap();
-        // A /goal_pose (or a patrol) taking the robot ends the navigation: the other may start.
+        // A /goal_pose preempts navigate_to_pose, as bt_navigator hands it to that navigator,
+        // and taking the robot ends the navigation: the other may start.
+        let click = s.take_robot_as("navigate_to_pose").unwrap();
+        assert!(s.owns_robot(click) && !s.owns_robot(pose));
+        let route = s.start_navigating("navigate_through_poses").unwrap();
+        // While a route drives, a /goal_pose is refused and the route keeps the robot.
+        assert_eq!(
+            s.take_robot_as("navigate_to_pose"),
+            Err("navigate_through_poses")
+        );
+        assert!(s.owns_robot(route));
+        // A patrol taking the robot ends the route's navigation: a /goal_pose is taken again.
         s.take_robot();
-        assert!(!s.owns_robot(pose));
-        assert!(s.start_navigating("navigate_through_poses").is_ok());
+        assert!(s.take_robot_as("navigate_to_pose").is_ok());
     }
 
     #[test]
