@@ -1,7 +1,7 @@
 //! The `patrol-plan` binary, run as a user runs it, on the shared maps.
 
 mod common;
-use common::{patrol_plan, shared};
+use common::{patrol_plan, scratch_dir, scratch_file, shared};
 
 /// A* matches the published optimal length of every scenario of the small Moving AI maps.
 #[test]
@@ -33,15 +33,12 @@ fn movingai_small_maps_all_pass() {
 /// A wrong optimum is reported as a failure with a non-zero exit: the check can fail.
 #[test]
 fn movingai_reports_a_wrong_optimum() {
-    let dir = std::env::temp_dir().join(format!("patrol-plan-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let scen = dir.join("arena.map.scen");
     // The first arena row has optimum 1; claim 2.
-    std::fs::write(
-        &scen,
+    let scen = scratch_file(
+        "test",
+        "arena.map.scen",
         "version 1\n0\tmaps/dao/arena.map\t49\t49\t1\t11\t1\t12\t2\n",
-    )
-    .unwrap();
+    );
     let m = shared("movingai/arena.map");
     let (ok, stdout, _) = patrol_plan(&[
         "movingai",
@@ -259,8 +256,7 @@ fn bench_astar_and_any_angle(
 #[test]
 fn bench_writes_rows_and_markdown() {
     let scen = shared("bench/substation_20_complex.scen.yaml");
-    let dir = std::env::temp_dir().join(format!("patrol-plan-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("bench");
     let (rows, table) = bench_astar_and_any_angle(&scen, &dir.join("b"));
     assert_eq!(rows.len(), 2 * 2);
     for r in &rows {
@@ -321,14 +317,11 @@ fn bench_writes_rows_and_markdown() {
 /// node refuses the same file with the same message), not a silent run of the defaults.
 #[test]
 fn a_top_level_typo_in_the_config_is_an_error() {
-    let dir = std::env::temp_dir().join(format!("patrol-plan-typo-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("typo.yaml");
-    std::fs::write(
-        &file,
+    let file = scratch_file(
+        "typo",
+        "typo.yaml",
         "patrol_planner:\n  ros__parameters:\n    max_planing_time: 1.0\n",
-    )
-    .unwrap();
+    );
     let expected = planner_io::parameters::load_parameter_file(&file)
         .unwrap_err()
         .to_string();
@@ -378,8 +371,7 @@ fn plan_prints_the_termination() {
 /// in the scenario file, `--only` naming no scenario and `--runs 0` are refused.
 #[test]
 fn bench_counts_the_answers_to_unsolvable_queries() {
-    let dir = std::env::temp_dir().join(format!("patrol-plan-split-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("split");
     // 50 x 50 cells of 0.2 m, free but for a wall across the middle (columns 24 and 25).
     let mut pgm = b"P5\n50 50\n255\n".to_vec();
     for _ in 0..50 {
@@ -452,14 +444,11 @@ fn a_downsampled_map_gives_paths_clear_on_the_full_map() {
     use planner_core::geometry::Point2;
     use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
     let map_path = shared("ros/nav2_warehouse/warehouse.yaml");
-    let dir = std::env::temp_dir().join(format!("patrol-plan-ds-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let config = dir.join("ds.yaml");
-    std::fs::write(
-        &config,
+    let config = scratch_file(
+        "ds",
+        "ds.yaml",
         "patrol_planner:\n  ros__parameters:\n    costmap:\n      downsampling_factor: 2\n",
-    )
-    .unwrap();
+    );
     let fine_map = planner_io::load_map(&map_path).unwrap();
     let fine = PlanningGrid::new(&fine_map, &InflationConfig::default()).unwrap();
     for planner in ["astar", "mocmcso"] {

@@ -4,7 +4,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 mod common;
-use common::{patrol_plan, repo};
+use common::{patrol_plan, repo, scratch_dir};
 
 /// `route` on the bundled files with extra arguments: the parsed JSON.
 fn route(points: &str, extra: &[&str]) -> Value {
@@ -25,9 +25,7 @@ fn names(v: &Value) -> Vec<&str> {
 }
 
 fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("patrol-plan-route-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    scratch_dir("route").join(name)
 }
 
 /// The bundled route: every point reached, a better order than the file's, the documented fields,

@@ -38,3 +38,17 @@ pub fn repo(p: &str) -> String {
         .unwrap()
         .to_string()
 }
+
+/// A folder of the test's own (`tag` and this process's id) under the system's temporary one.
+pub fn scratch_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("patrol-plan-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A file `name` holding `text` in [`scratch_dir`]`(tag)`.
+pub fn scratch_file(tag: &str, name: &str, text: impl AsRef<[u8]>) -> PathBuf {
+    let file = scratch_dir(tag).join(name);
+    std::fs::write(&file, text).unwrap();
+    file
+}
