@@ -662,11 +662,11 @@ pub fn validate_with<'a>(
     let info = grid.info();
     let mut start_point = info.world_to_grid(query.start);
     let mut goal_point = info.world_to_grid(query.goal);
-    let mut start = info
-        .world_to_cell(query.start)
+    let mut start = grid
+        .cell_at(query.start)
         .ok_or(PlanError::StartOutsideMap(query.start))?;
-    let mut goal = info
-        .world_to_cell(query.goal)
+    let mut goal = grid
+        .cell_at(query.goal)
         .ok_or(PlanError::GoalOutsideMap(query.goal))?;
     if !grid.is_free(start) {
         let moved = (start_tolerance.is_finite() && start_tolerance > 0.0)
@@ -772,6 +772,41 @@ mod tests {
 
     /// A wall between start and goal: the plan through a via point above it goes there first,
     /// then on; the joined plan is the two legs end to end, measured as one path; one goal is
+    /// A downsampled grid's edge cells reach past the map (9 cells at factor 2 make 5): a goal
+    /// there is outside the map, as it is at full resolution, not occupied or moved onto it.
+    #[test]
+    fn a_goal_past_a_downsampled_maps_edge_is_outside_the_map() {
+        use crate::config::PlannerConfig;
+        let fine = crate::test_support::grid_from_rows(&[".........", ".........", "........."]);
+        let coarse = fine.downsampled(2).unwrap();
+        assert_eq!(coarse.width(), 5);
+        let astar = crate::registry::build(&PlannerConfig {
+            planner: PlannerName::Astar,
+            ..PlannerConfig::default()
+        })
+        .unwrap();
+        for grid in [&fine, &coarse] {
+            let mut rng = crate::test_support::rng(3);
+            let mut ctx = PlanContext::never_interrupted(&mut rng);
+            let query = Query {
+                start: Point2::new(0.5, 0.5),
+                goal: Point2::new(9.5, 0.5),
+                tolerance: 3.0,
+            };
+            let answer = solve(
+                astar.as_ref(),
+                grid,
+                &query,
+                SolveOptions::default(),
+                &mut ctx,
+            );
+            assert!(
+                matches!(answer, Err(PlanError::GoalOutsideMap(_))),
+                "{answer:?}"
+            );
+        }
+    }
+
     /// `solve` itself; an occupied via point is refused as an occupied goal.
     #[test]
     fn a_plan_through_via_points_passes_each_in_order_and_is_measured_whole() {

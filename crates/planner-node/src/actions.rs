@@ -212,7 +212,10 @@ async fn run_goal<G: PlannerGoal>(
 /// The indices of the poses of `path` (map frame, metres) the robot cannot be at or reach from
 /// the pose before: a pose outside the map or in an obstacle or the inflated band, or one the
 /// segment from its predecessor reaches only through an obstacle. Nav2's `is_path_valid` asks the
-/// same of the costmap (lethal or inscribed cost).
+/// same of the costmap (lethal or inscribed cost). With `costmap.downsampling_factor` the grid is
+/// the coarse one the plans are made on, not the full costmap Nav2 asks: a coarse cell is blocked
+/// when any of its cells is, so a path may be called invalid that only the full grid lets pass,
+/// but a colliding path is never called valid.
 pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)]) -> Vec<i32> {
     use planner_core::geometry::Point2;
     use planner_core::grid::raycast::line_of_sight;
@@ -221,9 +224,8 @@ pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)
     let mut invalid = Vec::new();
     for (i, &(x, y)) in path.iter().enumerate() {
         let world = Point2::new(x, y);
-        let free = x.is_finite()
-            && y.is_finite()
-            && info.world_to_cell(world).is_some_and(|c| grid.is_free(c));
+        let free =
+            x.is_finite() && y.is_finite() && grid.cell_at(world).is_some_and(|c| grid.is_free(c));
         let here = info.world_to_grid(world);
         let reachable = previous.is_none_or(|p| line_of_sight(grid, p, here));
         if !(free && reachable) {

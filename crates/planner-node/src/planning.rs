@@ -174,7 +174,7 @@ pub async fn install_map(
             } else {
                 log::log!(
                     level,
-                    "map from {source}: {w} x {h} cells, planned on as {} x {} of {} m \
+                    "map from {source}: {w} x {h} cells, planned on as {} x {} of {:.3} m \
                      (costmap.downsampling_factor)",
                     grid.width,
                     grid.height,

@@ -38,8 +38,10 @@ pub struct MapState {
     pub grid: PlanningGrid,
     /// The map as it arrived.
     source: Arc<GridMap>,
-    /// The map the grid was made from: `source`, or `source` downsampled
-    /// (`costmap.downsampling_factor`), cell for cell the grid's.
+    /// `source` cell for cell the grid's: `source` itself, or, with
+    /// `costmap.downsampling_factor`, `source` downsampled alike (each block's worst value). The
+    /// grid is not made from it (the map is inflated at full resolution first); it says which
+    /// of the grid's cells are unknown when the grid is published as a costmap.
     map: Arc<GridMap>,
     /// The map is a costmap, taken as it is: only `allow_unknown` reads it.
     as_costmap: bool,
@@ -49,8 +51,8 @@ pub struct MapState {
 
 impl MapState {
     /// Makes `map`'s planning grid: the node's inflation of it by `costmap`, or, with
-    /// `as_costmap`, the map as a costmap (already inflated and graded); either downsampled
-    /// first by `costmap.downsampling_factor`.
+    /// `as_costmap`, the map as a costmap (already inflated and graded); either then downsampled
+    /// by `costmap.downsampling_factor` ([`planning_grid`]), so the inflation is exact.
     pub fn new(
         source: Arc<GridMap>,
         as_costmap: bool,
@@ -79,7 +81,8 @@ impl MapState {
         }
     }
 
-    /// The map the grid was made from (downsampled, if it was).
+    /// The map cell for cell the grid's (downsampled, if the grid was): what a published
+    /// costmap marks unknown.
     pub fn map(&self) -> &GridMap {
         &self.map
     }
@@ -579,9 +582,14 @@ mod tests {
 
     /// A 40 x 10 map at 0.1 m with a wall across its left end (column 0).
     fn wall_map() -> GridMap {
+        wall_map_at(0)
+    }
+
+    /// A 40 x 10 map at 0.1 m with a wall across it at `column`.
+    fn wall_map_at(column: usize) -> GridMap {
         let (w, h) = (40, 10);
         let data = (0..w * h)
-            .map(|i| if i % w == 0 { 100 } else { 0 })
+            .map(|i| if i % w == column { 100 } else { 0 })
             .collect();
         let info = MapInfo {
             width: w as u32,
@@ -604,15 +612,19 @@ mod tests {
     fn a_downsampled_grid_is_made_again_from_the_map_as_it_arrived() {
         let costmap = InflationConfig {
             downsampling_factor: 2,
+            safety_margin: 0.3,
             ..InflationConfig::default()
         };
-        let state = MapState::new(Arc::new(wall_map()), false, &costmap).unwrap();
+        assert!((costmap.radius() - 0.55).abs() < 1e-12);
+        let state = MapState::new(Arc::new(wall_map_at(1)), false, &costmap).unwrap();
         assert_eq!((state.map().width(), state.map().height()), (20, 5));
         assert_eq!((state.grid.width(), state.grid.height()), (20, 5));
         assert!((state.grid.resolution() - 0.2).abs() < 1e-12);
-        // The wall (column 0) is inflated by 0.45 m at full resolution (columns 1-4 blocked),
-        // then downsampled: coarse column 2 (columns 4-5) is blocked, column 3 (6-7) free.
-        assert!(!state.grid.is_free(Cell::new(2, 2)) && state.grid.is_free(Cell::new(3, 2)));
+        // The wall (column 1) is inflated by 0.55 m at full resolution (columns up to 6, 0.5 m
+        // off, blocked), then downsampled: coarse column 3 (columns 6-7) is blocked, 4 free.
+        // Downsampled first, the wall would be coarse column 0 and column 3 (0.6 m from it)
+        // free, with the robot's centre allowed 0.5 m from the wall.
+        assert!(!state.grid.is_free(Cell::new(3, 2)) && state.grid.is_free(Cell::new(4, 2)));
         assert_eq!(state.map().value(Cell::new(0, 2)), 100);
         let wider = InflationConfig {
             safety_margin: 0.6,

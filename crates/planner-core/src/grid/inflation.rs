@@ -9,7 +9,7 @@
 //! Distances are measured between cell centres, as Nav2's costmap inflation does: a cell is
 //! blocked when an obstacle cell's centre lies within `robot_radius + safety_margin` of its centre.
 
-use crate::geometry::{Cell, NEIGHBOURS_8};
+use crate::geometry::{Cell, Point2, NEIGHBOURS_8};
 use crate::grid::map::{GridMap, MapError, MapInfo, UNKNOWN};
 use crate::params::{check, ParamError, Range};
 use serde::{Deserialize, Serialize};
@@ -326,6 +326,12 @@ fn blocked_sums(w: usize, h: usize, padded_free: &[bool]) -> Vec<u32> {
 #[derive(Clone, Debug)]
 pub struct PlanningGrid {
     info: MapInfo,
+    /// The map this grid stands for: `info` itself, or, for a [downsampled] grid, the map at
+    /// full resolution, whose far edges the coarse cells reach past. A point is on the map when
+    /// it is inside this ([`PlanningGrid::cell_at`]), not merely inside a coarse edge cell.
+    ///
+    /// [downsampled]: PlanningGrid::downsampled
+    extent: MapInfo,
     /// Squared distance from each cell centre to the nearest obstacle cell centre, in cells
     /// (`u32::MAX` where there is none). The root is taken only when asked: most cells are never
     /// queried, and a million roots cost a third of the transform.
@@ -400,7 +406,12 @@ impl PlanningGrid {
     /// and a path free on the coarse grid is free on this one: downsampling gives up cells,
     /// never clearance. Clearances are then measured to the coarse obstacle cells, up to half
     /// a coarse cell's diagonal off. The costs are kept as they are (as a costmap's are).
+    /// The coarse grid's [cells](PlanningGrid::cell_at) still hold only this grid's map. Factor 1 (or
+    /// 0) is the grid itself.
     pub fn downsampled(&self, factor: u32) -> Result<Self, MapError> {
+        if factor <= 1 {
+            return Ok(self.clone());
+        }
         let (w, h) = (self.width(), self.height());
         let info = MapInfo {
             width: self.info.width.div_ceil(factor),
@@ -436,7 +447,10 @@ impl PlanningGrid {
                 highest.unwrap_or(LETHAL).max(floor)
             })
             .collect();
-        Ok(Self::from_obstacles(info, lethal, 0.0).with_own_costs(|i| blocked[i], costs))
+        let mut coarse =
+            Self::from_obstacles(info, lethal, 0.0).with_own_costs(|i| blocked[i], costs);
+        coarse.extent = self.extent;
+        Ok(coarse)
     }
 
     /// This grid with cells `blocked(i)` blocked as well and `costs` as its own (a costmap's,
@@ -507,6 +521,7 @@ impl PlanningGrid {
             blocked_sums: blocked_sums(w, h, &padded_free),
             free_by_cost: cost_says_free(&costs, &padded_free, w),
             info,
+            extent: info,
             clearance2,
             inflation_radius: radius,
             costs,
@@ -518,6 +533,12 @@ impl PlanningGrid {
 
     pub fn info(&self) -> &MapInfo {
         &self.info
+    }
+    /// The cell holding `p` (world metres), if `p` is on the map: inside the map the grid was
+    /// made from, not merely in one of a downsampled grid's edge cells that reach past it.
+    pub fn cell_at(&self, p: Point2) -> Option<Cell> {
+        self.extent.world_to_cell(p)?;
+        self.info.world_to_cell(p)
     }
     pub fn width(&self) -> usize {
         self.info.width as usize
@@ -1104,11 +1125,28 @@ mod tests {
                             .into_iter()
                             .filter(|f| (f.x as usize) < w && (f.y as usize) < h)
                             .collect();
-                        assert!(in_map.iter().all(|&f| coarse.cost(c) >= fine.cost(f)));
+                        let highest = in_map.iter().map(|&f| fine.cost(f)).max().unwrap();
+                        let whole = in_map.len() == (k * k) as usize;
+                        if whole {
+                            // And conversely: a whole block of free cells is a free coarse cell,
+                            // costing its block's highest cost, no more.
+                            let all_free = in_map.iter().all(|&f| fine.is_free(f));
+                            assert_eq!(coarse.is_free(c), all_free, "{c:?} x{factor}");
+                            assert_eq!(coarse.cost(c), highest, "{c:?} x{factor}");
+                        } else {
+                            assert!(!coarse.is_free(c) && coarse.cost(c) >= highest);
+                        }
                         let holds_obstacle = in_map.iter().any(|&f| fine.clearance(f) == 0.0);
                         assert_eq!(coarse.clearance(c) == 0.0, holds_obstacle, "{c:?}");
                     }
                 }
+                // The coarse edge cells reach past the map; a point there is off the map.
+                let edge = |g: &PlanningGrid| g.info().width as f64 * g.resolution();
+                assert!(edge(&coarse) >= edge(&fine));
+                let inside = Point2::new(edge(&fine) - 0.01, 0.3);
+                let past = Point2::new(edge(&fine) + 0.01, 0.3);
+                assert!(coarse.cell_at(inside).is_some() && fine.cell_at(inside).is_some());
+                assert_eq!((coarse.cell_at(past), fine.cell_at(past)), (None, None));
             }
         }
     }

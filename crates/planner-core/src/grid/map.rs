@@ -212,12 +212,14 @@ impl GridMap {
         self.data[self.info.index(c)]
     }
 
-    /// The map at `factor` times its resolution, as Nav2's Smac planners downsample their
-    /// costmap (`downsampling_factor`) to plan on large maps: each block of `factor x factor`
-    /// cells becomes one cell holding the block's worst value, so nothing the robot must avoid
-    /// is lost. Worst first: an obstacle (a value at or above `obstacle_at`; the block keeps the
-    /// highest), then unknown, then the highest free value. Same origin; the blocks along the
-    /// far edges take the cells there are. Factor 1 (or 0) is the map itself.
+    /// The map at `factor` times its resolution, cell for cell a grid downsampled by `factor`
+    /// (`downsampling_factor`; the planning grid itself is inflated at full resolution first,
+    /// `PlanningGrid::downsampled`): each block of `factor x factor` cells becomes one cell
+    /// holding the block's worst value, so that a drawing or a published costmap loses nothing
+    /// the robot must avoid. Worst first: an obstacle (a value at or above `obstacle_at`; the
+    /// block keeps the highest), then unknown, then the highest free value. Same origin; the
+    /// blocks along the far edges take the cells there are, so the coarse map reaches up to a
+    /// coarse cell past this one's far edges. Factor 1 (or 0) is the map itself.
     pub fn downsampled(&self, factor: u32, obstacle_at: i8) -> Result<GridMap, MapError> {
         if factor <= 1 {
             return Ok(self.clone());

@@ -49,7 +49,7 @@ impl LegMatrix {
         let mut usable = Vec::new();
         let mut unreachable = Vec::new();
         for (k, &p) in positions.iter().enumerate() {
-            match info.world_to_cell(p) {
+            match grid.cell_at(p) {
                 None => unreachable.push((k, SkipReason::OutsideMap)),
                 Some(c) if !grid.is_free(c) => unreachable.push((k, SkipReason::Occupied)),
                 Some(c) => usable.push((k, c)),
