@@ -61,6 +61,8 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                         // the goal it was learns it arrived.
                         if let Some(done) = s.followed.lock().expect("lock").take() {
                             *s.arrived.lock().expect("lock") = Some((done.owner, Instant::now()));
+                            // A /goal_pose's navigation ends here (an action's, with its drive).
+                            s.done_navigating(done.owner);
                         }
                     }
                     cmd

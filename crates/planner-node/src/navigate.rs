@@ -9,10 +9,12 @@
 //! one (aborted), a client's cancel stops the robot (canceled); a goal of the other navigate
 //! action while one navigates is refused (aborted, error code 0) and the running one goes on,
 //! as bt_navigator's navigators share it. A `/goal_pose` counts as a `navigate_to_pose` goal,
-//! as bt_navigator turns it into one: it preempts that action's goal and is refused (BUSY on
-//! `/diagnostics`) while a route drives. `follow_waypoints` takes the robot from either. A failure carries the code of the step that failed, as bt_navigator reports
-//! it: the planner's (ComputePathToPose's 2xx, ComputePathThroughPoses' 3xx) or the
-//! controller's FAILED_TO_MAKE_PROGRESS (105) for a plan not driven within its time.
+//! as bt_navigator turns it into one: it preempts that action's goal, is refused (BUSY on
+//! `/diagnostics`) while a route drives, and while it drives a route is refused.
+//! `follow_waypoints` takes the robot from either. A failure carries the code of the step that
+//! failed, as bt_navigator reports it: the planner's (ComputePathToPose's 2xx,
+//! ComputePathThroughPoses' 3xx) or the controller's FAILED_TO_MAKE_PROGRESS (105) for a plan
+//! not driven within its time.
 //! `behavior_tree` names one of bt_navigator's trees; this node has none, and says so in its
 //! log.
 

@@ -289,13 +289,14 @@ impl Shared {
         Ok(owner)
     }
 
-    /// Takes the robot for a goal that bt_navigator hands to its navigator `name` without
-    /// making it a navigation of its own here (a `/goal_pose`, which bt_navigator sends to its
-    /// `navigate_to_pose`): refused, `Err` naming the other, while the other navigate action is
-    /// navigating; a running goal of `name` itself loses the robot to it, as a preempt.
+    /// Takes the robot for a goal that bt_navigator hands to its navigator `name` (a
+    /// `/goal_pose`, which bt_navigator sends to its `navigate_to_pose`): refused, `Err` naming
+    /// the other, while the other navigate action is navigating; a running goal of `name` itself
+    /// loses the robot to it, as a preempt. The goal then navigates as `name` until it is
+    /// reached, fails or loses the robot: the planning task and the follower end it
+    /// ([`Shared::done_navigating`]), as there is no action's drive to.
     pub fn take_robot_as(&self, name: &'static str) -> Result<u64, &'static str> {
-        let navigator = self.navigator.lock().expect("lock");
-        self.take_robot_unless_other(&navigator, name)
+        self.start_navigating(name)
     }
 
     /// The robot for a goal of `name`, unless another navigator is navigating; the caller holds
@@ -317,6 +318,11 @@ impl Shared {
         if navigator.is_some_and(|(_, o)| o == owner) {
             *navigator = None;
         }
+    }
+
+    /// Ends whatever navigation there is (the node left the active state: nothing drives).
+    pub fn end_navigation(&self) {
+        *self.navigator.lock().expect("lock") = None;
     }
 
     /// Whether goal `owner` still has the robot (no newer goal has taken it).
@@ -355,6 +361,11 @@ impl Shared {
     /// Whether goal `owner`'s path was finished (the follower arrived) since `since`.
     pub fn arrived_since(&self, owner: u64, since: Instant) -> bool {
         matches!(*self.arrived.lock().expect("lock"), Some((o, at)) if o == owner && at >= since)
+    }
+
+    /// Whether goal `owner`'s path is being followed.
+    pub fn is_following(&self, owner: u64) -> bool {
+        (self.followed.lock().expect("lock").as_ref()).is_some_and(|f| f.owner == owner)
     }
 
     /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
@@ -796,9 +807,15 @@ mod tests {
         s.done_navigating(newer);
         let pose = s.start_navigating("navigate_to_pose").unwrap();
         // A /goal_pose preempts navigate_to_pose, as bt_navigator hands it to that navigator,
-        // and taking the robot ends the navigation: the other may start.
+        // and navigates as it: the other is refused until the click's goal ends.
         let click = s.take_robot_as("navigate_to_pose").unwrap();
         assert!(s.owns_robot(click) && !s.owns_robot(pose));
+        s.done_navigating(pose);
+        assert_eq!(
+            s.start_navigating("navigate_through_poses"),
+            Err("navigate_to_pose")
+        );
+        s.done_navigating(click);
         let route = s.start_navigating("navigate_through_poses").unwrap();
         // While a route drives, a /goal_pose is refused and the route keeps the robot.
         assert_eq!(
@@ -809,6 +826,9 @@ mod tests {
         // A patrol taking the robot ends the route's navigation: a /goal_pose is taken again.
         s.take_robot();
         assert!(s.take_robot_as("navigate_to_pose").is_ok());
+        // And a node leaving the active state ends every navigation.
+        s.end_navigation();
+        assert!(s.start_navigating("navigate_through_poses").is_ok());
     }
 
     #[test]
