@@ -123,8 +123,8 @@ class Ros:
 
     def wait_action_answers(self, client, probe, what, timeout=45):
         """Waits until `client`'s goals are answered: sends the goal `probe` (one the node
-        refuses at once without touching the robot) until its acceptance arrives, then waits for
-        its result. `server_is_ready` says the client's requests reach the server, not that the
+        accepts and aborts at once without touching the robot) until its acceptance arrives, then
+        waits for its result. `server_is_ready` says the client's requests reach the server, not that the
         server's replies reach the client: a goal sent in between is run by the node, but its
         acceptance is lost and the client waits for ever (seen 2 of 7 runs of test_navigate)."""
         deadline = time.time() + timeout
@@ -137,9 +137,11 @@ class Ros:
             if not sent.done():
                 continue  # its acceptance was lost: ask again
             handle = sent.result()
-            if handle.accepted:
-                result = handle.get_result_async()
-                self.spin_until(result.done, 30, f"{what}: the probe goal's result")
+            # A rejected probe means the node refuses goals (not active, busy): every goal the
+            # test sends next would be refused too, so say so here.
+            assert handle.accepted, f"{what} rejected the probe goal: the node refuses goals"
+            result = handle.get_result_async()
+            self.spin_until(result.done, 30, f"{what}: the probe goal's result")
             return
         raise AssertionError(f"timed out after {timeout} s waiting for {what} to answer a goal")
 
