@@ -2,8 +2,8 @@
 //! patrol car's 0.6 m/s and 0.4 rad/s, with acceleration limits, `limits`), differential-drive
 //! wheel kinematics (`kinematics`), a command watchdog (`watchdog`), the planar pose in the odom
 //! frame (`pose`), a simulated unicycle chassis (`sim`), a regulated pure-pursuit path follower
-//! (`follower`), the line protocol to a motor controller (`protocol`) and encoder odometry
-//! (`odometry`).
+//! (`follower`) with its progress checker (`progress`), the line protocol to a motor controller
+//! (`protocol`) and encoder odometry (`odometry`).
 //!
 //! Pure: no ROS, no tokio, no clock and no I/O. Callers pass the time step and the bytes, so
 //! everything here is tested and property-tested alone. The `chassis_bridge` binary (crate
@@ -15,6 +15,7 @@ pub mod kinematics;
 pub mod limits;
 pub mod odometry;
 pub mod pose;
+pub mod progress;
 pub mod protocol;
 pub mod sim;
 pub mod watchdog;
