@@ -7,6 +7,7 @@
 use crate::LoadError;
 use chassis::follower::FollowerParams;
 use chassis::limits::TwistLimits;
+use chassis::progress::ProgressParams;
 use planner_core::config::PlannerConfig;
 use planner_core::PlannerName;
 use serde::{Deserialize, Serialize};
@@ -51,6 +52,12 @@ pub struct NodeParams {
     pub twist_limits: TwistLimits,
     /// The path follower.
     pub follower: FollowerParams,
+    /// Nav2's progress checker (controller_server's `PoseProgressChecker`): an action's drive
+    /// that has neither moved nor turned far enough within its allowance fails to make progress.
+    pub progress_checker: ProgressParams,
+    /// What an action's drive does when it fails in a way a recovery may help, as bt_navigator's
+    /// recovery tree does.
+    pub recovery: RecoveryParams,
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
     pub enable_stamped_cmd_vel: bool,
@@ -102,6 +109,30 @@ pub struct NodeParams {
     pub plugin_planners: BTreeMap<String, Option<PlannerName>>,
 }
 
+/// Recoveries of a navigate action's (or a patrol leg's) drive, as Nav2's default trees retry
+/// a navigation (`RecoveryNode number_of_retries="6"`) after a recovery (clearing the costmaps,
+/// a spin, a wait, a back-up): here the robot stops, waits `wait_duration`, and plans again from
+/// where it is, through the poses not yet passed. Only failures a recovery may help are tried
+/// again, as Nav2's `WouldAPlannerRecoveryHelp` and `WouldAControllerRecoveryHelp` decide: no
+/// valid path, a planner timeout, an unknown error, no progress.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecoveryParams {
+    /// How many times a failed drive is tried again (Nav2's default trees: 6). 0: never.
+    pub number_of_retries: u32,
+    /// How long (s) the robot waits, stopped, before it plans again (Nav2's Wait recovery: 5).
+    pub wait_duration: f64,
+}
+
+impl Default for RecoveryParams {
+    fn default() -> Self {
+        Self {
+            number_of_retries: 6,
+            wait_duration: 5.0,
+        }
+    }
+}
+
 impl Default for NodeParams {
     fn default() -> Self {
         Self {
@@ -115,6 +146,8 @@ impl Default for NodeParams {
             follow_plan: true,
             twist_limits: TwistLimits::default(),
             follower: FollowerParams::default(),
+            progress_checker: ProgressParams::default(),
+            recovery: RecoveryParams::default(),
             enable_stamped_cmd_vel: false,
             robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
@@ -167,6 +200,19 @@ impl NodeParams {
             return Err(
                 "control_rate_hz must be at least 0.1, bond_heartbeat_period 0 (off) or within 0.01..=60 s, waypoint_pause_duration at most 3600 s"
                     .into(),
+            );
+        }
+        if !self.progress_checker.is_valid() {
+            return Err(
+                "progress_checker: required_movement_radius, required_movement_angle and movement_time_allowance (at most a day) must be finite and positive"
+                    .into(),
+            );
+        }
+        if self.recovery.number_of_retries > 100
+            || !(0.0..=600.0).contains(&self.recovery.wait_duration)
+        {
+            return Err(
+                "recovery: number_of_retries at most 100, wait_duration within 0..=600 s".into(),
             );
         }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
@@ -624,5 +670,41 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("twist_limits"));
+        // The progress checker and the recoveries: read, and bad values refused by name.
+        let ok = write(
+            "recovery.yaml",
+            "    progress_checker: {movement_time_allowance: 4.0}\n    recovery: {number_of_retries: 2}\n",
+        );
+        let node = load_parameter_file(&ok).unwrap().node;
+        assert_eq!(node.progress_checker.movement_time_allowance, 4.0);
+        assert_eq!(node.progress_checker.required_movement_radius, 0.5);
+        assert_eq!(node.recovery.number_of_retries, 2);
+        for (name, block, key) in [
+            (
+                "allow.yaml",
+                "    progress_checker: {movement_time_allowance: 0.0}\n",
+                "progress_checker",
+            ),
+            (
+                "radius.yaml",
+                "    progress_checker: {required_movement_radius: .nan}\n",
+                "progress_checker",
+            ),
+            (
+                "retries.yaml",
+                "    recovery: {number_of_retries: 1000}\n",
+                "recovery",
+            ),
+            (
+                "wait.yaml",
+                "    recovery: {wait_duration: -1.0}\n",
+                "recovery",
+            ),
+        ] {
+            let err = load_parameter_file(&write(name, block))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key), "{name}: {err}");
+        }
     }
 }

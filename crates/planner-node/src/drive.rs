@@ -1,12 +1,15 @@
-//! One drive to a pose, as Nav2's default navigation tree runs one without its recoveries: plan
-//! from where the robot is, publish the plan, and follow it (follow.rs; a new map that blocks it
-//! has it planned again, inputs.rs, and the drive goes on along the new path, with that path's
-//! end and time limit) until the robot arrives, a stop is asked for (cancel, preemption), a newer
-//! goal takes the robot (superseded: that goal's drive goes on), the node is deactivated
-//! (lifecycle: the robot stops), or the time to drive it runs out. `navigate_to_pose` is one
+//! One drive to a pose, as Nav2's default navigation tree runs one: plan from where the robot
+//! is, publish the plan, and follow it (follow.rs; a new map that blocks it has it planned
+//! again, inputs.rs, and the drive goes on along the new path, with that path's end and time
+//! limit) until the robot arrives, a stop is asked for (cancel, preemption), a newer goal takes
+//! the robot (superseded: that goal's drive goes on), the node is deactivated (lifecycle: the
+//! robot stops), the robot makes no progress (`progress_checker`, as controller_server's), or
+//! the time to drive it runs out. A failure a recovery may help (no progress, no valid path, a
+//! planner timeout) is tried again after a recovery, as Nav2's trees retry (`recovery`): the
+//! robot stops, waits, and the drive plans again from where it is. `navigate_to_pose` is one
 //! drive; `navigate_through_poses` one through all its poses, as Nav2's through-poses tree
-//! plans one path through them and drives it without stopping at each (a replan goes through
-//! the poses not yet passed); `follow_waypoints` one per waypoint, stopping at each.
+//! plans one path through them and drives it without stopping at each (a replan or a retry goes
+//! through the poses not yet passed); `follow_waypoints` one per waypoint, stopping at each.
 
 use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
@@ -14,6 +17,8 @@ use crate::planning;
 use crate::result::{Failure, ResultCode};
 use crate::state::{path_length, Handover, Shared};
 use chassis::limits::TwistLimits;
+use chassis::progress::ProgressChecker;
+use log::warn;
 use planner_core::geometry::Pose2;
 use std::future::Future;
 use std::sync::Arc;
@@ -31,10 +36,26 @@ pub enum DriveEnd {
     Superseded,
     /// No plan, and the planner's reason (on `/diagnostics` too).
     NoPlan(Failure),
-    /// Planned and followed, but the robot was not there when the time to drive it ran out
-    /// (stalled, blocked, no odometry). A replan that failed is [`DriveEnd::NoPlan`], with its
-    /// reason.
-    NotReached,
+    /// Planned and followed, but the robot did not get there: it made no progress (stalled,
+    /// blocked, no odometry), or the time to drive the plan ran out; the reason says which. A
+    /// replan that failed is [`DriveEnd::NoPlan`], with its reason.
+    NotReached(String),
+}
+
+impl DriveEnd {
+    /// Whether a recovery may help, as Nav2's `WouldAControllerRecoveryHelp` (no progress) and
+    /// `WouldAPlannerRecoveryHelp` (no valid path, a timeout, an unknown error) judge: a goal
+    /// outside the map or occupied, a bad frame, a stop or a newer goal is not tried again.
+    pub fn recovery_may_help(&self) -> bool {
+        match self {
+            DriveEnd::NotReached(_) => true,
+            DriveEnd::NoPlan(f) => matches!(
+                f.code,
+                ResultCode::NoValidPath | ResultCode::Timeout | ResultCode::Unknown
+            ),
+            DriveEnd::Reached | DriveEnd::Stopped | DriveEnd::Superseded => false,
+        }
+    }
 }
 
 /// Where a drive stands, each tick, for an action's feedback.
@@ -48,6 +69,8 @@ pub struct Progress {
     pub speed: f64,
     /// The poses still ahead, the goal included, as Nav2's `number_of_poses_remaining`.
     pub poses_remaining: usize,
+    /// The recoveries so far, as Nav2's `number_of_recoveries`.
+    pub recoveries: u16,
 }
 
 /// The time (s) a cusp of the path costs beside its half turn: the approach down to a crawl
@@ -59,9 +82,80 @@ const TICK: Duration = Duration::from_millis(100);
 
 /// Drives through `goals` (global frame; via poses in order, then the goal, which the robot ends
 /// facing) for goal `mine` (its claim on the robot, [`Shared::take_robot`]: a patrol takes it
-/// once for all its legs), calling `progress` each tick while the plan is followed. Callers
-/// check `follow_plan` first, before the goal takes the robot, and give at least one pose.
+/// once for all its legs), calling `progress` each tick while the plan is followed and once at
+/// each recovery. A failure a recovery may help is tried again up to
+/// `recovery.number_of_retries` times, each after the robot has waited, stopped, for
+/// `recovery.wait_duration`, through the poses it has not passed yet. Callers check
+/// `follow_plan` first, before the goal takes the robot, and give at least one pose.
 pub async fn drive_to<P, Fut>(
+    s: &Arc<Shared>,
+    o: &Outputs,
+    goals: &[Pose2],
+    mine: u64,
+    stop: &GoalStop,
+    mut progress: P,
+) -> DriveEnd
+where
+    P: FnMut(Progress) -> Fut,
+    Fut: Future<Output = ()>,
+{
+    let retries = s.params.recovery.number_of_retries;
+    let wait = Duration::from_secs_f64(s.params.recovery.wait_duration);
+    let mut ahead = goals;
+    let mut recoveries: u16 = 0;
+    loop {
+        let mut last: Option<Progress> = None;
+        let end = drive_once(s, o, ahead, mine, stop, |p: Progress| {
+            let p = Progress { recoveries, ..p };
+            last = Some(p);
+            progress(p)
+        })
+        .await;
+        if u32::from(recoveries) >= retries || !end.recovery_may_help() {
+            return end;
+        }
+        recoveries += 1;
+        warn!(
+            "drive for goal {mine}: {}; recovery {recoveries} of {retries}: waiting {:.1} s, then \
+             planning again from where the robot is",
+            match &end {
+                DriveEnd::NotReached(why) => why.clone(),
+                DriveEnd::NoPlan(f) => f.message.clone(),
+                _ => unreachable!("only these may be helped"),
+            },
+            wait.as_secs_f64()
+        );
+        if let Some(p) = last {
+            progress(p).await;
+        }
+        // The robot waits, stopped (drive_once stopped it), unless the goal ends meanwhile.
+        let waited = Instant::now();
+        while waited.elapsed() < wait {
+            tokio::time::sleep(TICK.min(wait.saturating_sub(waited.elapsed()))).await;
+            if stop.requested() {
+                return DriveEnd::Stopped;
+            }
+            if let Some(end) = taken(s, mine) {
+                return end;
+            }
+        }
+        // Through the poses not passed yet (the goal always).
+        if let Some(p) = last {
+            ahead = &ahead[ahead.len() - p.poses_remaining.clamp(1, ahead.len())..];
+        }
+    }
+}
+
+/// Why a drive is no longer goal `mine`'s to go on with: the node was deactivated (its reason),
+/// or a newer goal took the robot.
+fn taken(s: &Shared, mine: u64) -> Option<DriveEnd> {
+    s.refusal()
+        .map(DriveEnd::NoPlan)
+        .or_else(|| (!s.owns_robot(mine)).then_some(DriveEnd::Superseded))
+}
+
+/// One try of [`drive_to`]: plan once, follow until it ends.
+async fn drive_once<P, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,
     goals: &[Pose2],
@@ -91,13 +185,6 @@ where
         let (stop, superseded) = (stop.clone(), superseded.clone());
         move || stop.requested() || superseded()
     };
-    // Why the drive is no longer this goal's to go on with: the node was deactivated (its
-    // reason), or a newer goal took the robot.
-    let taken = || {
-        s.refusal()
-            .map(DriveEnd::NoPlan)
-            .or_else(|| superseded().then_some(DriveEnd::Superseded))
-    };
     let outcome =
         planning::plan_off_thread(s, from, goals.to_vec(), tolerance, None, stop_plan).await;
     let published = o.publish(s, &outcome).await;
@@ -107,7 +194,7 @@ where
         if stop.requested() {
             return DriveEnd::Stopped;
         }
-        if let Some(end) = taken() {
+        if let Some(end) = taken(s, mine) {
             return end;
         }
         let why = outcome.result.as_ref().err().cloned().unwrap_or_else(|| {
@@ -119,7 +206,7 @@ where
         mine,
         Handover::new(goals.to_vec(), &path, &plan.via, *goal_yaw),
     ) {
-        return taken().unwrap_or(DriveEnd::Superseded);
+        return taken(s, mine).unwrap_or(DriveEnd::Superseded);
     }
     // The plan being driven: the first, then each replan around a new map (inputs.rs), which
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
@@ -127,6 +214,8 @@ where
     if let Some(first) = s.followed.lock().expect("lock").as_ref() {
         driven.update(&first.path, &s.params.twist_limits);
     }
+    let mut checker = ProgressChecker::new(s.params.progress_checker);
+    let mut stuck = None;
     loop {
         tokio::time::sleep(TICK).await;
         // Arrived within the last tick: reached, whatever came after (a cancel, a newer goal).
@@ -140,7 +229,7 @@ where
         }
         // Deactivated (lifecycle): the node stops the robot; so does the drive, in case it
         // looked first (a newer goal's drive is left be: `stop_following` checks the owner).
-        if let Some(end) = taken() {
+        if let Some(end) = taken(s, mine) {
             s.stop_following(mine);
             return end;
         }
@@ -177,8 +266,23 @@ where
                 remaining_m,
                 speed,
                 poses_remaining,
+                recoveries: 0,
             })
             .await;
+        }
+        let pose = robot.map(|p| chassis::Pose {
+            x: p.x,
+            y: p.y,
+            yaw: p.yaw,
+        });
+        if !checker.check(pose.as_ref(), started.elapsed().as_secs_f64()) {
+            let p = &s.params.progress_checker;
+            stuck = Some(format!(
+                "the robot made no progress: it neither moved {} m nor turned {} rad in {} s",
+                p.required_movement_radius, p.required_movement_angle, p.movement_time_allowance
+            ));
+            s.stop_following(mine);
+            break;
         }
         if driven.deadline.is_some_and(|d| Instant::now() > d) {
             s.stop_following(mine);
@@ -191,13 +295,15 @@ where
     if s.arrived_since(mine, started) {
         return DriveEnd::Reached;
     }
-    if let Some(end) = taken() {
+    if let Some(end) = taken(s, mine) {
         return end;
     }
     if let Some(f) = s.take_failed_replan(mine) {
         return DriveEnd::NoPlan(f);
     }
-    DriveEnd::NotReached
+    DriveEnd::NotReached(stuck.unwrap_or_else(|| {
+        "the robot did not reach the end of its plan within the time to drive it".into()
+    }))
 }
 
 /// The path a drive is following, as last seen on the follower.
@@ -232,5 +338,39 @@ impl Plan {
         let cap = *self.cap.get_or_insert(now + 3 * time);
         self.deadline = Some((now + time).min(cap));
         self.path = Some(path.clone());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// As Nav2's `WouldAControllerRecoveryHelp` and `WouldAPlannerRecoveryHelp`: no progress, no
+    /// valid path, a timeout and an unknown error are tried again; a bad goal, a stop or a newer
+    /// goal are not.
+    #[test]
+    fn only_failures_a_recovery_may_help_are_tried_again() {
+        let no_plan = |code| DriveEnd::NoPlan(Failure::new(code, "why"));
+        assert!(DriveEnd::NotReached("stuck".into()).recovery_may_help());
+        for code in [
+            ResultCode::NoValidPath,
+            ResultCode::Timeout,
+            ResultCode::Unknown,
+        ] {
+            assert!(no_plan(code).recovery_may_help(), "{code:?}");
+        }
+        for code in [
+            ResultCode::GoalOccupied,
+            ResultCode::StartOccupied,
+            ResultCode::GoalOutsideMap,
+            ResultCode::TfError,
+            ResultCode::NotActive,
+            ResultCode::NoMap,
+        ] {
+            assert!(!no_plan(code).recovery_may_help(), "{code:?}");
+        }
+        for end in [DriveEnd::Reached, DriveEnd::Stopped, DriveEnd::Superseded] {
+            assert!(!end.recovery_may_help(), "{end:?}");
+        }
     }
 }

@@ -4,7 +4,8 @@
 //! through every pose in order, planned as one path (ComputePathThroughPoses) and driven without
 //! stopping at the poses on the way, as Nav2's through-poses tree does. Feedback each tick, as
 //! bt_navigator's: the robot's pose, the time since the goal arrived, the path length still to
-//! drive, the time remaining at the current speed, no recoveries (the node has none), and, for
+//! drive, the time remaining at the current speed, the recoveries so far (drive.rs: a drive that
+//! makes no progress or finds no path waits and plans again, as Nav2's trees retry), and, for
 //! through-poses, the poses still ahead. A newer goal of the same action preempts the running
 //! one (aborted), a client's cancel stops the robot (canceled); a goal of the other navigate
 //! action while one navigates is refused (aborted, error code 0) and the running one goes on,
@@ -47,6 +48,8 @@ pub struct NavigationFeedback {
     pub distance_remaining: f32,
     /// The poses still ahead, the goal included.
     pub poses_remaining: usize,
+    /// The recoveries so far.
+    pub recoveries: u16,
 }
 
 /// What the two navigate actions' goals have in common (as actions.rs's `PlannerGoal` is for
@@ -88,7 +91,7 @@ impl NavigateGoal for NavigateToPoseGoal {
             current_pose: f.current_pose,
             navigation_time: f.navigation_time,
             estimated_time_remaining: f.estimated_time_remaining,
-            number_of_recoveries: 0,
+            number_of_recoveries: i16::try_from(f.recoveries).unwrap_or(i16::MAX),
             distance_remaining: f.distance_remaining,
         }
     }
@@ -116,7 +119,7 @@ impl NavigateGoal for NavigateThroughPosesGoal {
             current_pose: f.current_pose,
             navigation_time: f.navigation_time,
             estimated_time_remaining: f.estimated_time_remaining,
-            number_of_recoveries: 0,
+            number_of_recoveries: i16::try_from(f.recoveries).unwrap_or(i16::MAX),
             distance_remaining: f.distance_remaining,
             number_of_poses_remaining: i16::try_from(f.poses_remaining).unwrap_or(i16::MAX),
         }
@@ -204,6 +207,7 @@ async fn navigate<G: NavigateGoal>(
             estimated_time_remaining: duration_msg(eta),
             distance_remaining: p.remaining_m as f32,
             poses_remaining: p.poses_remaining,
+            recoveries: p.recoveries,
         });
         async move { feedback.send(message).await }
     };
@@ -243,10 +247,7 @@ async fn navigate<G: NavigateGoal>(
             "preempted by a newer goal on /goal_pose or another action".into(),
         ),
         DriveEnd::NoPlan(f) => failed(nav2_code(f.code, G::CODE_BASE), f.message),
-        DriveEnd::NotReached => failed(
-            FAILED_TO_MAKE_PROGRESS,
-            "the robot did not reach the end of its plan within the time to drive it".into(),
-        ),
+        DriveEnd::NotReached(why) => failed(FAILED_TO_MAKE_PROGRESS, why),
     }
 }
 

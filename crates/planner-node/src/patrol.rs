@@ -216,8 +216,8 @@ async fn patrol(
                     }
                     continue;
                 }
-                DriveEnd::NotReached => {
-                    warn!("follow_waypoints: pass {pass}, waypoint {i} not reached");
+                DriveEnd::NotReached(why) => {
+                    warn!("follow_waypoints: pass {pass}, waypoint {i} not reached: {why}");
                     result.missed_waypoints.push(missed(NOT_REACHED));
                     if stop_on_failure {
                         return failed(result, i);
