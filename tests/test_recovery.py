@@ -9,7 +9,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - Blocked for good: the goal ends aborted with FAILED_TO_MAKE_PROGRESS (105) after exactly the
   retries, its message saying the robot made no progress, and the robot is told to stop.
 - Blocked until the first recovery, then free: the goal succeeds, with one recovery reported.
-- A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it."""
+- A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it.
+- A /goal_pose whose robot makes no progress is given up: the robot is told to stop."""
 import math
 import time
 
@@ -136,7 +137,22 @@ def test_a_robot_that_makes_no_progress_is_recovered_then_given_up_on(rig):
     assert max(f.number_of_recoveries for f in feedback) == 1
     assert math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) <= 0.2, (robot.x, robot.y)
 
-    # A goal in the pillar: GOAL_OCCUPIED at once, no recovery tried.
+    # A goal in the pillar: GOAL_OCCUPIED at once, no recovery tried (each is reported in the
+    # feedback, a plan or not, and costs a wait).
+    t0 = time.time()
     r, feedback = navigate(ros, client, (2.7, 2.5), lambda f: None, 10)
     assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 206), r.result.error_msg
     assert all(f.number_of_recoveries == 0 for f in feedback)
+    assert time.time() - t0 < 3.0
+
+    # A /goal_pose whose robot makes no progress is given up too (no recoveries: no action to
+    # report them to): the robot is told to stop, and stays stopped.
+    robot.blocked = True
+    robot.cmds.clear()
+    ros.wait_matched(ros.goal_pub, "/goal_pose")
+    ros.goal_pub.publish(stamped(*START))
+    ros.spin_until(lambda: any(c.linear.x != 0.0 or c.angular.z != 0.0 for c in robot.cmds), 20, "the node to drive")
+    ros.spin_until(lambda: robot.cmds[-1].linear.x == 0.0 and robot.cmds[-1].angular.z == 0.0, ALLOWANCE + 5, "a stop")
+    stopped = len(robot.cmds)
+    ros.spin_for(1.5)
+    assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in robot.cmds[stopped:]), "driving again"

@@ -770,8 +770,6 @@ mod tests {
         assert!(!improves_on(seed, metrics(10.0 + 1e-12, 2.0 - 1e-12)));
     }
 
-    /// A wall between start and goal: the plan through a via point above it goes there first,
-    /// then on; the joined plan is the two legs end to end, measured as one path; one goal is
     /// A downsampled grid's edge cells reach past the map (9 cells at factor 2 make 5): a goal
     /// there is outside the map, as it is at full resolution, not occupied or moved onto it.
     #[test]
@@ -807,6 +805,8 @@ mod tests {
         }
     }
 
+    /// A wall between start and goal: the plan through a via point above it goes there first,
+    /// then on; the joined plan is the two legs end to end, measured as one path; one goal is
     /// `solve` itself; an occupied via point is refused as an occupied goal.
     #[test]
     fn a_plan_through_via_points_passes_each_in_order_and_is_measured_whole() {

@@ -4,8 +4,9 @@
 //! limit) until the robot arrives, a stop is asked for (cancel, preemption), a newer goal takes
 //! the robot (superseded: that goal's drive goes on), the node is deactivated (lifecycle: the
 //! robot stops), the robot makes no progress (`progress_checker`, as controller_server's), or
-//! the time to drive it runs out. A failure a recovery may help (no progress, no valid path, a
-//! planner timeout) is tried again after a recovery, as Nav2's trees retry (`recovery`): the
+//! the time to drive it runs out. A failure a recovery may help (no progress or out of time,
+//! no valid path, a planner timeout or unknown error) is tried again after a recovery, as
+//! Nav2's trees retry (`recovery`): the
 //! robot stops, waits, and the drive plans again from where it is. `navigate_to_pose` is one
 //! drive; `navigate_through_poses` one through all its poses, as Nav2's through-poses tree
 //! plans one path through them and drives it without stopping at each (a replan or a retry goes
@@ -125,7 +126,20 @@ where
             },
             wait.as_secs_f64()
         );
-        if let Some(p) = last {
+        // The recovery is reported at once, even when no plan was followed (no path found):
+        // from the last tick, or from where the robot is, the goal's straight distance away.
+        let goal = ahead[ahead.len() - 1];
+        let report = last.map(|p| Progress { recoveries, ..p }).or_else(|| {
+            let robot = s.odom.read().expect("lock").map(|(p, _)| p)?;
+            Some(Progress {
+                robot,
+                remaining_m: (goal.x - robot.x).hypot(goal.y - robot.y),
+                speed: 0.0,
+                poses_remaining: ahead.len(),
+                recoveries,
+            })
+        });
+        if let Some(p) = report {
             progress(p).await;
         }
         // The robot waits, stopped (drive_once stopped it), unless the goal ends meanwhile.

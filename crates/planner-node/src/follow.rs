@@ -1,9 +1,11 @@
 //! The path follower's loop: the node drives the plan it published, from `/odom`, through
-//! the chassis library's regulated pure pursuit, within the twist and acceleration limits.
+//! the chassis library's regulated pure pursuit, within the twist and acceleration limits. A
+//! `/goal_pose`'s drive, which no action watches, is checked for progress here.
 
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use chassis::follower::Status as FollowStatus;
+use chassis::progress::ProgressChecker;
 use chassis::Twist2;
 use log::{info, warn};
 use std::sync::atomic::Ordering;
@@ -22,6 +24,8 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(dt));
     let mut previous = Twist2::STOP;
     let mut stale_reported = false;
+    // The `/goal_pose` goal being driven, and its progress (an action's drive checks its own).
+    let mut watched: Option<(u64, ProgressChecker, Instant)> = None;
     loop {
         ticker.tick().await;
         let pose = s
@@ -62,13 +66,43 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                         if let Some(done) = s.followed.lock().expect("lock").take() {
                             *s.arrived.lock().expect("lock") = Some((done.owner, Instant::now()));
                             // A /goal_pose's navigation ends here (an action's, with its drive).
-                            s.done_navigating(done.owner);
+                            s.done_topic_goal(done.owner);
                         }
                     }
                     cmd
                 }
             }
         };
+        // A /goal_pose's drive that makes no progress stops and ends, as navigate_to_pose's
+        // would (without its recoveries: no action is there to report them).
+        match s.topic_goal().filter(|&g| s.is_following(g)) {
+            Some(goal) => {
+                if watched.as_ref().is_none_or(|(g, _, _)| *g != goal) {
+                    let checker = ProgressChecker::new(s.params.progress_checker);
+                    watched = Some((goal, checker, Instant::now()));
+                }
+                let (_, checker, since) = watched.as_mut().expect("set above");
+                let now = pose.map(|p| chassis::Pose {
+                    x: p.x,
+                    y: p.y,
+                    yaw: p.yaw,
+                });
+                if !checker.check(now.as_ref(), since.elapsed().as_secs_f64()) {
+                    let p = &s.params.progress_checker;
+                    warn!(
+                        "goal {goal} from /goal_pose given up: the robot neither moved {} m nor \
+                         turned {} rad in {} s",
+                        p.required_movement_radius,
+                        p.required_movement_angle,
+                        p.movement_time_allowance
+                    );
+                    s.stop_following(goal);
+                    s.done_topic_goal(goal);
+                    watched = None;
+                }
+            }
+            None => watched = None,
+        }
         let applied = s.params.twist_limits.apply(cmd, previous, dt);
         previous = applied;
         s.moving.store(applied != Twist2::STOP, Ordering::SeqCst);

@@ -14,8 +14,8 @@
 //! `/diagnostics`) while a route drives, and while it drives a route is refused.
 //! `follow_waypoints` takes the robot from either. A failure carries the code of the step that
 //! failed, as bt_navigator reports it: the planner's (ComputePathToPose's 2xx,
-//! ComputePathThroughPoses' 3xx) or the controller's FAILED_TO_MAKE_PROGRESS (105) for a plan
-//! not driven within its time.
+//! ComputePathThroughPoses' 3xx) or the controller's FAILED_TO_MAKE_PROGRESS (105) for a robot
+//! that made no progress or a plan not driven within its time, once the recoveries are spent.
 //! `behavior_tree` names one of bt_navigator's trees; this node has none, and says so in its
 //! log.
 

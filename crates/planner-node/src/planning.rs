@@ -309,7 +309,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                 "no start pose yet: publish /initialpose, /amcl_pose or /odom",
             );
             o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
-            s.done_navigating(id);
+            s.done_topic_goal(id);
             continue;
         };
         let tolerance = s.live.read().expect("lock").tolerance;
@@ -359,9 +359,9 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
             }
         }
         // A goal not driven now (failed, or only planned) is no longer navigating: a
-        // `/goal_pose`'s navigation ends here, or on arrival (follow.rs).
+        // `/goal_pose`'s navigation ends here, or on arrival or no progress (follow.rs).
         if !s.is_following(id) {
-            s.done_navigating(id);
+            s.done_topic_goal(id);
         }
     }
 }

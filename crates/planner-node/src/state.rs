@@ -142,8 +142,18 @@ pub struct Shared {
     pub moving: AtomicBool,
     /// The lifecycle state: only an active node plans and drives.
     pub lifecycle: RwLock<crate::lifecycle::State>,
-    /// The navigate action navigating, and its goal's number (see [`Shared::start_navigating`]).
-    navigator: Mutex<Option<(&'static str, u64)>>,
+    /// The navigation going on, if any (see [`Shared::start_navigating`]).
+    navigator: Mutex<Option<Navigation>>,
+}
+
+/// A navigation: the navigate action it counts as, and its goal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Navigation {
+    name: &'static str,
+    owner: u64,
+    /// A `/goal_pose`'s, which no action's drive ends: the planning task, the follower and a
+    /// lifecycle transition do ([`Shared::done_topic_goal`]).
+    from_topic: bool,
 }
 
 impl Shared {
@@ -283,9 +293,17 @@ impl Shared {
     /// `follow_waypoints`, not one of bt_navigator's navigators) no longer counts. End with
     /// [`Shared::done_navigating`].
     pub fn start_navigating(&self, name: &'static str) -> Result<u64, &'static str> {
+        self.navigate(name, false)
+    }
+
+    fn navigate(&self, name: &'static str, from_topic: bool) -> Result<u64, &'static str> {
         let mut navigator = self.navigator.lock().expect("lock");
         let owner = self.take_robot_unless_other(&navigator, name)?;
-        *navigator = Some((name, owner));
+        *navigator = Some(Navigation {
+            name,
+            owner,
+            from_topic,
+        });
         Ok(owner)
     }
 
@@ -293,36 +311,55 @@ impl Shared {
     /// `/goal_pose`, which bt_navigator sends to its `navigate_to_pose`): refused, `Err` naming
     /// the other, while the other navigate action is navigating; a running goal of `name` itself
     /// loses the robot to it, as a preempt. The goal then navigates as `name` until it is
-    /// reached, fails or loses the robot: the planning task and the follower end it
-    /// ([`Shared::done_navigating`]), as there is no action's drive to.
+    /// reached, fails, makes no progress or loses the robot: the planning task and the
+    /// follower end it ([`Shared::done_topic_goal`]), as there is no action's drive to.
     pub fn take_robot_as(&self, name: &'static str) -> Result<u64, &'static str> {
-        self.start_navigating(name)
+        self.navigate(name, true)
     }
 
     /// The robot for a goal of `name`, unless another navigator is navigating; the caller holds
     /// the navigator's lock, so no other navigation can start in between.
     fn take_robot_unless_other(
         &self,
-        navigator: &Option<(&'static str, u64)>,
+        navigator: &Option<Navigation>,
         name: &'static str,
     ) -> Result<u64, &'static str> {
         match *navigator {
-            Some((other, owner)) if other != name && self.owns_robot(owner) => Err(other),
+            Some(n) if n.name != name && self.owns_robot(n.owner) => Err(n.name),
             _ => Ok(self.take_robot()),
         }
     }
 
-    /// Ends goal `owner`'s navigation, if it is still the one navigating.
+    /// Ends goal `owner`'s navigation, if it is still the one navigating (an action's drive,
+    /// as it ends).
     pub fn done_navigating(&self, owner: u64) {
-        let mut navigator = self.navigator.lock().expect("lock");
-        if navigator.is_some_and(|(_, o)| o == owner) {
-            *navigator = None;
-        }
+        self.end_navigation_if(|n| n.owner == owner);
     }
 
-    /// Ends whatever navigation there is (the node left the active state: nothing drives).
-    pub fn end_navigation(&self) {
-        *self.navigator.lock().expect("lock") = None;
+    /// Ends `/goal_pose` goal `owner`'s navigation, if it is still the one navigating; an
+    /// action's goal of the same number (a replan of its path fails in the planning task) is
+    /// left to its drive, which may still recover.
+    pub fn done_topic_goal(&self, owner: u64) {
+        self.end_navigation_if(|n| n.from_topic && n.owner == owner);
+    }
+
+    /// Ends a `/goal_pose`'s navigation (the node left the active state, and the follower with
+    /// it); an action's drive ends its own.
+    pub fn end_topic_navigation(&self) {
+        self.end_navigation_if(|n| n.from_topic);
+    }
+
+    /// The `/goal_pose` goal navigating, if one is.
+    pub fn topic_goal(&self) -> Option<u64> {
+        let navigator = self.navigator.lock().expect("lock");
+        navigator.filter(|n| n.from_topic).map(|n| n.owner)
+    }
+
+    fn end_navigation_if(&self, ends: impl Fn(&Navigation) -> bool) {
+        let mut navigator = self.navigator.lock().expect("lock");
+        if navigator.as_ref().is_some_and(ends) {
+            *navigator = None;
+        }
     }
 
     /// Whether goal `owner` still has the robot (no newer goal has taken it).
@@ -815,7 +852,13 @@ mod tests {
             s.start_navigating("navigate_through_poses"),
             Err("navigate_to_pose")
         );
-        s.done_navigating(click);
+        assert_eq!(s.topic_goal(), Some(click));
+        // Ending the click's navigation as a /goal_pose's leaves an action's of another number
+        // be, and ends its own.
+        s.done_topic_goal(click - 1);
+        assert_eq!(s.topic_goal(), Some(click));
+        s.done_topic_goal(click);
+        assert_eq!(s.topic_goal(), None);
         let route = s.start_navigating("navigate_through_poses").unwrap();
         // While a route drives, a /goal_pose is refused and the route keeps the robot.
         assert_eq!(
@@ -826,9 +869,19 @@ mod tests {
         // A patrol taking the robot ends the route's navigation: a /goal_pose is taken again.
         s.take_robot();
         assert!(s.take_robot_as("navigate_to_pose").is_ok());
-        // And a node leaving the active state ends every navigation.
-        s.end_navigation();
-        assert!(s.start_navigating("navigate_through_poses").is_ok());
+        // A node leaving the active state ends a /goal_pose's navigation, not an action's (its
+        // drive ends it).
+        s.end_topic_navigation();
+        let route = s.start_navigating("navigate_through_poses").unwrap();
+        s.end_topic_navigation();
+        s.done_topic_goal(route);
+        assert_eq!(
+            s.start_navigating("navigate_to_pose"),
+            Err("navigate_through_poses"),
+            "an action's navigation ends only with its drive"
+        );
+        s.done_navigating(route);
+        assert!(s.start_navigating("navigate_to_pose").is_ok());
     }
 
     #[test]
