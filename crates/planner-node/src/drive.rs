@@ -228,7 +228,7 @@ where
     if let Some(first) = s.followed.lock().expect("lock").as_ref() {
         driven.update(&first.path, &s.params.twist_limits);
     }
-    let mut checker = ProgressChecker::new(s.params.progress_checker);
+    let mut watch = StallWatch::new(s);
     let mut stuck = None;
     loop {
         tokio::time::sleep(TICK).await;
@@ -284,17 +284,8 @@ where
             })
             .await;
         }
-        let pose = robot.map(|p| chassis::Pose {
-            x: p.x,
-            y: p.y,
-            yaw: p.yaw,
-        });
-        if !checker.check(pose.as_ref(), started.elapsed().as_secs_f64()) {
-            let p = &s.params.progress_checker;
-            stuck = Some(format!(
-                "the robot made no progress: it neither moved {} m nor turned {} rad in {} s",
-                p.required_movement_radius, p.required_movement_angle, p.movement_time_allowance
-            ));
+        if let Some(why) = watch.stuck(robot) {
+            stuck = Some(why);
             s.stop_following(mine);
             break;
         }
@@ -318,6 +309,42 @@ where
     DriveEnd::NotReached(stuck.unwrap_or_else(|| {
         "the robot did not reach the end of its plan within the time to drive it".into()
     }))
+}
+
+/// A drive's progress checker, on the drive's own clock.
+pub struct StallWatch {
+    checker: ProgressChecker,
+    params: chassis::progress::ProgressParams,
+    started: Instant,
+}
+
+impl StallWatch {
+    /// Starts watching now, with the node's `progress_checker` parameters.
+    pub fn new(s: &Shared) -> Self {
+        Self {
+            checker: ProgressChecker::new(s.params.progress_checker),
+            params: s.params.progress_checker,
+            started: Instant::now(),
+        }
+    }
+
+    /// Takes the robot's pose now (`None`: no fresh odometry); says why the robot is stuck once
+    /// it has made no progress for longer than the allowance.
+    pub fn stuck(&mut self, robot: Option<Pose2>) -> Option<String> {
+        let pose = robot.map(|p| chassis::Pose {
+            x: p.x,
+            y: p.y,
+            yaw: p.yaw,
+        });
+        let t = self.started.elapsed().as_secs_f64();
+        (!self.checker.check(pose.as_ref(), t)).then(|| {
+            let p = &self.params;
+            format!(
+                "the robot made no progress: it neither moved {} m nor turned {} rad in {} s",
+                p.required_movement_radius, p.required_movement_angle, p.movement_time_allowance
+            )
+        })
+    }
 }
 
 /// The path a drive is following, as last seen on the follower.

@@ -2,10 +2,10 @@
 //! the chassis library's regulated pure pursuit, within the twist and acceleration limits. A
 //! `/goal_pose`'s drive, which no action watches, is checked for progress here.
 
+use crate::drive::StallWatch;
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use chassis::follower::Status as FollowStatus;
-use chassis::progress::ProgressChecker;
 use chassis::Twist2;
 use log::{info, warn};
 use std::sync::atomic::Ordering;
@@ -25,7 +25,7 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
     let mut previous = Twist2::STOP;
     let mut stale_reported = false;
     // The `/goal_pose` goal being driven, and its progress (an action's drive checks its own).
-    let mut watched: Option<(u64, ProgressChecker, Instant)> = None;
+    let mut watched: Option<(u64, StallWatch)> = None;
     loop {
         ticker.tick().await;
         let pose = s
@@ -77,25 +77,12 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
         // would (without its recoveries: no action is there to report them).
         match s.topic_goal().filter(|&g| s.is_following(g)) {
             Some(goal) => {
-                if watched.as_ref().is_none_or(|(g, _, _)| *g != goal) {
-                    let checker = ProgressChecker::new(s.params.progress_checker);
-                    watched = Some((goal, checker, Instant::now()));
+                if watched.as_ref().is_none_or(|(g, _)| *g != goal) {
+                    watched = Some((goal, StallWatch::new(&s)));
                 }
-                let (_, checker, since) = watched.as_mut().expect("set above");
-                let now = pose.map(|p| chassis::Pose {
-                    x: p.x,
-                    y: p.y,
-                    yaw: p.yaw,
-                });
-                if !checker.check(now.as_ref(), since.elapsed().as_secs_f64()) {
-                    let p = &s.params.progress_checker;
-                    warn!(
-                        "goal {goal} from /goal_pose given up: the robot neither moved {} m nor \
-                         turned {} rad in {} s",
-                        p.required_movement_radius,
-                        p.required_movement_angle,
-                        p.movement_time_allowance
-                    );
+                let (_, watch) = watched.as_mut().expect("set above");
+                if let Some(why) = watch.stuck(pose) {
+                    warn!("goal {goal} from /goal_pose given up: {why}");
                     s.stop_following(goal);
                     s.done_topic_goal(goal);
                     watched = None;
