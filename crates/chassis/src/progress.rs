@@ -60,6 +60,10 @@ impl ProgressChecker {
         }
     }
 
+    pub fn params(&self) -> &ProgressParams {
+        &self.params
+    }
+
     /// Takes the robot's pose at time `t` (`None`: no pose now, as when odometry stopped) and
     /// says whether it is still making progress: false once it has been longer than the
     /// allowance since it last moved or turned far enough. The first call starts the clock.

@@ -6,11 +6,11 @@
 //! robot stops), the robot makes no progress (`progress_checker`, as controller_server's), or
 //! the time to drive it runs out. A failure a recovery may help (no progress or out of time,
 //! no valid path, a planner timeout or unknown error) is tried again after a recovery, as
-//! Nav2's trees retry (`recovery`): the
-//! robot stops, waits, and the drive plans again from where it is. `navigate_to_pose` is one
-//! drive; `navigate_through_poses` one through all its poses, as Nav2's through-poses tree
-//! plans one path through them and drives it without stopping at each (a replan or a retry goes
-//! through the poses not yet passed); `follow_waypoints` one per waypoint, stopping at each.
+//! Nav2's trees retry (`recovery`): the robot stops, waits, and the drive plans again from where
+//! it is. `navigate_to_pose` is one drive; `navigate_through_poses` one through all its poses,
+//! as Nav2's through-poses tree plans one path through them and drives it without stopping at
+//! each (a replan or a retry goes through the poses not yet passed); `follow_waypoints` one per
+//! waypoint, stopping at each.
 
 use crate::action_server::GoalStop;
 use crate::outputs::Outputs;
@@ -191,13 +191,9 @@ where
     let started = Instant::now();
     // A newer goal (`/goal_pose`, another action's) takes the robot from this drive; a replan
     // of this drive's own path (a new map blocks it, inputs.rs) keeps it.
-    let superseded = {
-        let s = s.clone();
-        move || !s.owns_robot(mine)
-    };
     let stop_plan = {
-        let (stop, superseded) = (stop.clone(), superseded.clone());
-        move || stop.requested() || superseded()
+        let (s, stop) = (s.clone(), stop.clone());
+        move || stop.requested() || !s.owns_robot(mine)
     };
     let outcome =
         planning::plan_off_thread(s, from, goals.to_vec(), tolerance, None, stop_plan).await;
@@ -314,7 +310,6 @@ where
 /// A drive's progress checker, on the drive's own clock.
 pub struct StallWatch {
     checker: ProgressChecker,
-    params: chassis::progress::ProgressParams,
     started: Instant,
 }
 
@@ -323,7 +318,6 @@ impl StallWatch {
     pub fn new(s: &Shared) -> Self {
         Self {
             checker: ProgressChecker::new(s.params.progress_checker),
-            params: s.params.progress_checker,
             started: Instant::now(),
         }
     }
@@ -338,7 +332,7 @@ impl StallWatch {
         });
         let t = self.started.elapsed().as_secs_f64();
         (!self.checker.check(pose.as_ref(), t)).then(|| {
-            let p = &self.params;
+            let p = self.checker.params();
             format!(
                 "the robot made no progress: it neither moved {} m nor turned {} rad in {} s",
                 p.required_movement_radius, p.required_movement_angle, p.movement_time_allowance

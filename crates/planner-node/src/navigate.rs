@@ -49,7 +49,7 @@ pub struct NavigationFeedback {
     /// The poses still ahead, the goal included.
     pub poses_remaining: usize,
     /// The recoveries so far.
-    pub recoveries: u16,
+    pub recoveries: i16,
 }
 
 /// What the two navigate actions' goals have in common (as actions.rs's `PlannerGoal` is for
@@ -91,7 +91,7 @@ impl NavigateGoal for NavigateToPoseGoal {
             current_pose: f.current_pose,
             navigation_time: f.navigation_time,
             estimated_time_remaining: f.estimated_time_remaining,
-            number_of_recoveries: i16::try_from(f.recoveries).unwrap_or(i16::MAX),
+            number_of_recoveries: f.recoveries,
             distance_remaining: f.distance_remaining,
         }
     }
@@ -119,7 +119,7 @@ impl NavigateGoal for NavigateThroughPosesGoal {
             current_pose: f.current_pose,
             navigation_time: f.navigation_time,
             estimated_time_remaining: f.estimated_time_remaining,
-            number_of_recoveries: i16::try_from(f.recoveries).unwrap_or(i16::MAX),
+            number_of_recoveries: f.recoveries,
             distance_remaining: f.distance_remaining,
             number_of_poses_remaining: i16::try_from(f.poses_remaining).unwrap_or(i16::MAX),
         }
@@ -207,7 +207,7 @@ async fn navigate<G: NavigateGoal>(
             estimated_time_remaining: duration_msg(eta),
             distance_remaining: p.remaining_m as f32,
             poses_remaining: p.poses_remaining,
-            recoveries: p.recoveries,
+            recoveries: i16::try_from(p.recoveries).unwrap_or(i16::MAX),
         });
         async move { feedback.send(message).await }
     };
