@@ -2,7 +2,8 @@
 //! patrol car's 0.6 m/s and 0.4 rad/s, with acceleration limits, `limits`), differential-drive
 //! wheel kinematics (`kinematics`), a command watchdog (`watchdog`), the planar pose in the odom
 //! frame (`pose`), a simulated unicycle chassis (`sim`), a regulated pure-pursuit path follower
-//! (`follower`) with its progress checker (`progress`), the line protocol to a motor controller
+//! (`follower`) with its progress checker (`progress`), the spin and
+//! back-up of Nav2's recoveries (`behavior`), the line protocol to a motor controller
 //! (`protocol`) and encoder odometry (`odometry`).
 //!
 //! Pure: no ROS, no tokio, no clock and no I/O. Callers pass the time step and the bytes, so
@@ -10,6 +11,7 @@
 //! chassis-bridge, which adds the serial device and the ROS 2 edge) and the planner node's
 //! follower loop wrap it.
 
+pub mod behavior;
 pub mod follower;
 pub mod kinematics;
 pub mod limits;

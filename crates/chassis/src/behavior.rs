@@ -1,0 +1,303 @@
+//! The motions of Nav2's behavior server (nav2_behaviors) a recovery makes when following a path
+//! got nowhere: `Spin` turns on the spot through a given angle, `BackUp` drives straight back a
+//! given distance. Each is a small state machine like the path follower: fed the robot's pose
+//! each control cycle, it says what to command and whether it is done, and it measures its own
+//! progress (the angle turned, the distance driven) as Nav2's feedback reports it.
+//!
+//! As in nav2_behaviors, a motion only commands; whoever runs it watches its time allowance and
+//! checks the poses it is about to pass ([`Motion::ahead`]) against a costmap: the chassis crate
+//! has neither a clock nor a map.
+
+use crate::limits::TwistLimits;
+use crate::{Pose, Twist2};
+use std::f64::consts::PI;
+
+/// The slowest turn rate (rad/s) a spin commands near its end, so it always finishes: Nav2's
+/// `min_rotational_vel` (0.4) is this chassis's top rate, so it would leave no slowing down.
+pub const MIN_SPIN_RATE: f64 = 0.05;
+
+/// The slowest speed (m/s) a back-up commands near its end, for the same reason.
+pub const MIN_BACKUP_SPEED: f64 = 0.02;
+
+/// Whether a motion is still going.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    Running,
+    /// It has turned (or driven) as far as it was asked; the command is a stop.
+    Done,
+}
+
+/// A turn on the spot through `target` rad (counter-clockwise if positive), as nav2_behaviors'
+/// Spin: the angle turned is summed from the change of heading each cycle (across +-pi), and
+/// the turn rate is `sqrt(2 * max_angular_accel * remaining)` within the limits, so the robot
+/// slows to a stop where the turn ends.
+#[derive(Clone, Debug)]
+pub struct Spin {
+    target: f64,
+    turned: f64,
+    last_yaw: Option<f64>,
+}
+
+impl Spin {
+    /// A spin through `target` rad; `None` unless it is finite.
+    pub fn new(target: f64) -> Option<Self> {
+        target.is_finite().then_some(Self {
+            target,
+            turned: 0.0,
+            last_yaw: None,
+        })
+    }
+
+    /// The angle turned so far (rad, signed), Spin's `angular_distance_traveled`.
+    pub fn turned(&self) -> f64 {
+        self.turned
+    }
+
+    /// Takes the pose and gives the command: a turn towards the target's side, or a stop once
+    /// it has turned far enough.
+    pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
+        if let Some(last) = self.last_yaw {
+            self.turned += wrap(pose.yaw - last);
+        }
+        self.last_yaw = Some(pose.yaw);
+        let remaining = self.target.abs() - self.turned.abs();
+        if remaining < 1e-6 {
+            return (Twist2::STOP, Status::Done);
+        }
+        let rate = (2.0 * limits.max_angular_accel * remaining)
+            .sqrt()
+            .min(limits.max_angular)
+            .max(MIN_SPIN_RATE.min(limits.max_angular));
+        (
+            Twist2::new(0.0, rate.copysign(self.target)),
+            Status::Running,
+        )
+    }
+}
+
+/// A straight drive backwards through `distance` m at up to `speed` m/s, as nav2_behaviors'
+/// BackUp (its DriveOnHeading backwards): the distance driven is the straight distance from
+/// where it began, and the speed falls as `sqrt(2 * max_linear_accel * remaining)` near the end.
+#[derive(Clone, Debug)]
+pub struct BackUp {
+    distance: f64,
+    speed: f64,
+    from: Option<Pose>,
+    driven: f64,
+}
+
+impl BackUp {
+    /// A back-up through `distance` m at `speed` m/s (both taken as magnitudes, as Nav2's BackUp
+    /// takes them); `None` unless both are finite and not zero.
+    pub fn new(distance: f64, speed: f64) -> Option<Self> {
+        let ok = |v: f64| v.is_finite() && v != 0.0;
+        (ok(distance) && ok(speed)).then_some(Self {
+            distance: distance.abs(),
+            speed: speed.abs(),
+            from: None,
+            driven: 0.0,
+        })
+    }
+
+    /// The distance driven so far (m), BackUp's `distance_traveled`.
+    pub fn driven(&self) -> f64 {
+        self.driven
+    }
+
+    /// Takes the pose and gives the command: backwards, or a stop once it has driven far enough.
+    pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
+        let from = *self.from.get_or_insert(*pose);
+        self.driven = (pose.x - from.x).hypot(pose.y - from.y);
+        let remaining = self.distance - self.driven;
+        if remaining <= 0.0 {
+            return (Twist2::STOP, Status::Done);
+        }
+        let speed = (2.0 * limits.max_linear_accel * remaining)
+            .sqrt()
+            .min(self.speed)
+            .min(limits.max_linear)
+            .max(MIN_BACKUP_SPEED.min(self.speed).min(limits.max_linear));
+        (Twist2::new(-speed, 0.0), Status::Running)
+    }
+
+    /// How far (m) it still has to go.
+    pub fn remaining(&self) -> f64 {
+        (self.distance - self.driven).max(0.0)
+    }
+}
+
+/// A behaviour's motion, as the node's control loop runs it.
+#[derive(Clone, Debug)]
+pub enum Motion {
+    Spin(Spin),
+    BackUp(BackUp),
+}
+
+impl Motion {
+    /// The command for this cycle and whether the motion is done.
+    pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
+        match self {
+            Motion::Spin(s) => s.command(pose, limits),
+            Motion::BackUp(b) => b.command(pose, limits),
+        }
+    }
+
+    /// How far it has come: the angle turned (rad) or the distance driven (m).
+    pub fn progress(&self) -> f64 {
+        match self {
+            Motion::Spin(s) => s.turned(),
+            Motion::BackUp(b) => b.driven(),
+        }
+    }
+
+    /// The poses the robot will pass from `pose` over the next `horizon` seconds at `step`
+    /// spacing (s), not beyond the motion's end, as nav2_behaviors simulates ahead before each
+    /// command (`simulate_ahead_time`): the caller checks each against its costmap. A spin stays
+    /// where it is and only turns, so for a round robot its one pose is the one to check; a
+    /// back-up runs back along the heading, at most its remaining distance.
+    pub fn ahead(&self, pose: &Pose, limits: &TwistLimits, horizon: f64, step: f64) -> Vec<Pose> {
+        match self {
+            Motion::Spin(_) => vec![*pose],
+            Motion::BackUp(b) => {
+                let speed = b.speed.min(limits.max_linear);
+                let reach = (speed * horizon.max(0.0)).min(b.remaining());
+                let ds = (speed * step).max(1e-3);
+                let n = (reach / ds).ceil() as usize;
+                (0..=n)
+                    .map(|i| {
+                        let d = (i as f64 * ds).min(reach);
+                        Pose {
+                            x: pose.x - d * pose.yaw.cos(),
+                            y: pose.y - d * pose.yaw.sin(),
+                            yaw: pose.yaw,
+                        }
+                    })
+                    .collect()
+            }
+        }
+    }
+}
+
+/// An angle change wrapped into (-pi, pi].
+fn wrap(a: f64) -> f64 {
+    let r = a.rem_euclid(2.0 * PI);
+    if r > PI {
+        r - 2.0 * PI
+    } else {
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::Unicycle;
+
+    /// Runs `motion` on the simulated chassis within `limits` until it is done (or `cycles` run
+    /// out); returns the final pose and every command applied.
+    fn run(mut motion: Motion, from: Pose, cycles: usize) -> (Pose, Vec<Twist2>, bool) {
+        let limits = TwistLimits::default();
+        let dt = 0.05;
+        let mut sim = Unicycle::new(from);
+        let (mut previous, mut sent) = (Twist2::STOP, vec![]);
+        for _ in 0..cycles {
+            let (cmd, status) = motion.command(&sim.pose, &limits);
+            let applied = limits.apply(cmd, previous, dt);
+            sent.push(applied);
+            previous = applied;
+            if status == Status::Done && applied == Twist2::STOP {
+                return (sim.pose, sent, true);
+            }
+            sim.step(applied, dt);
+        }
+        (sim.pose, sent, false)
+    }
+
+    #[test]
+    fn a_spin_turns_through_its_angle_across_pi_and_stops() {
+        // From 3 rad, a quarter turn to the left crosses +pi.
+        let from = Pose {
+            x: 1.0,
+            y: 2.0,
+            yaw: 3.0,
+        };
+        let (end, sent, done) = run(Motion::Spin(Spin::new(1.57).unwrap()), from, 400);
+        assert!(done);
+        let turned = wrap(end.yaw - 3.0);
+        assert!((turned - 1.57).abs() < 0.05, "turned {turned}");
+        assert!((end.x - 1.0).abs() < 1e-9 && (end.y - 2.0).abs() < 1e-9);
+        assert!(sent.iter().all(|c| c.linear == 0.0 && c.angular >= 0.0));
+        assert!(
+            sent.iter().any(|c| (c.angular - 0.4).abs() < 1e-9),
+            "top rate"
+        );
+        // And to the right.
+        let (end, sent, done) = run(Motion::Spin(Spin::new(-3.0).unwrap()), from, 400);
+        assert!(done && sent.iter().all(|c| c.angular <= 0.0));
+        assert!((wrap(end.yaw - 3.0) + 3.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn a_spin_of_more_than_a_turn_sums_its_turning() {
+        let (end, _, done) = run(
+            Motion::Spin(Spin::new(2.0 * PI + 0.5).unwrap()),
+            Pose::default(),
+            1000,
+        );
+        assert!(done);
+        assert!((wrap(end.yaw) - 0.5).abs() < 0.05, "{}", end.yaw);
+    }
+
+    #[test]
+    fn a_back_up_drives_straight_back_its_distance_and_stops() {
+        let from = Pose {
+            x: 2.0,
+            y: 1.0,
+            yaw: PI / 2.0,
+        };
+        let mut b = Motion::BackUp(BackUp::new(0.3, -0.15).unwrap());
+        let (end, sent, done) = run(b.clone(), from, 400);
+        assert!(done);
+        assert!(
+            (end.y - 0.7).abs() < 0.02 && (end.x - 2.0).abs() < 1e-9,
+            "{end:?}"
+        );
+        assert!(sent
+            .iter()
+            .all(|c| c.linear <= 0.0 && c.linear >= -0.15 && c.angular == 0.0));
+        // What it will pass: straight behind, at most its distance.
+        let ahead = b.ahead(&from, &TwistLimits::default(), 2.0, 0.1);
+        let last = ahead.last().unwrap();
+        assert!(
+            (last.y - 0.7).abs() < 1e-9 && (last.x - 2.0).abs() < 1e-9,
+            "{last:?}"
+        );
+        assert!(ahead.windows(2).all(|w| w[1].y < w[0].y));
+        // Once started, only the remaining distance is ahead.
+        b.command(&from, &TwistLimits::default());
+        let moved = Pose { y: 0.9, ..from };
+        b.command(&moved, &TwistLimits::default());
+        assert!((b.progress() - 0.1).abs() < 1e-9);
+        let last = *b
+            .ahead(&moved, &TwistLimits::default(), 2.0, 0.1)
+            .last()
+            .unwrap();
+        assert!((last.y - 0.7).abs() < 1e-9, "{last:?}");
+        // At 0.15 m/s over 1 s only 0.15 m is looked at.
+        let short = b.ahead(&moved, &TwistLimits::default(), 1.0, 0.1);
+        assert!((short.last().unwrap().y - 0.75).abs() < 1e-9);
+    }
+
+    #[test]
+    fn motions_that_go_nowhere_are_refused() {
+        assert!(Spin::new(f64::NAN).is_none() && Spin::new(f64::INFINITY).is_none());
+        assert!(BackUp::new(0.0, 0.1).is_none() && BackUp::new(0.3, 0.0).is_none());
+        assert!(BackUp::new(f64::NAN, 0.1).is_none());
+        // A zero spin is done at once.
+        let mut s = Spin::new(0.0).unwrap();
+        assert_eq!(
+            s.command(&Pose::default(), &TwistLimits::default()).1,
+            Status::Done
+        );
+    }
+}
