@@ -1,16 +1,22 @@
-"""Recoveries, as Nav2's default navigation trees retry a goal: a navigate_to_pose drive whose
-robot makes no progress (controller_server's progress checker: neither moved
-`required_movement_radius` nor turned `required_movement_angle` within
-`movement_time_allowance`) stops, waits `recovery.wait_duration` and plans again from where the
-robot is, up to `recovery.number_of_retries` times, each counted in the feedback's
+"""Recoveries and behaviours, as Nav2's default navigation trees retry a goal and its behavior
+server serves them: a navigate_to_pose drive whose robot makes no progress (controller_server's
+progress checker: neither moved `required_movement_radius` nor turned
+`required_movement_angle` within `movement_time_allowance`) stops, makes the next recovery
+behaviour in turn (spin, wait, back up: Nav2's round robin; a spin or back-up that runs past
+`recovery.time_allowance` fails and hands over to the next) and plans again from where the robot
+is, up to `recovery.number_of_retries` times, each counted in the feedback's
 number_of_recoveries. The test itself is the robot: it publishes /odom, standing still while it
 is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's rate).
 
 - Blocked for good: the goal ends aborted with FAILED_TO_MAKE_PROGRESS (105) after exactly the
-  retries, its message saying the robot made no progress, and the robot is told to stop.
+  retries, its message saying the robot made no progress, the robot told to spin and to back up
+  on the way, and to stop at the end.
 - Blocked until the first recovery, then free: the goal succeeds, with one recovery reported.
 - A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it.
-- A /goal_pose whose robot makes no progress is given up: the robot is told to stop."""
+- A /goal_pose whose robot makes no progress is given up: the robot is told to stop.
+- The spin, backup and wait actions (nav2_simple_commander's spin() and backup()): the robot
+  turns through the angle, backs up the distance, a back-up towards the pillar stops short of it
+  with COLLISION_AHEAD (714), a back-up sideways is INVALID_INPUT (713), a wait waits."""
 import math
 import time
 
@@ -23,7 +29,7 @@ from nav_msgs.msg import Odometry
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionClient
 
-from nav2_msgs.action import NavigateToPose
+from nav2_msgs.action import BackUp, NavigateToPose, Spin, Wait
 
 from conftest import Ros, call_service, domain_id, stamped, start_node, stop_binary
 from test_node import grid_msg
@@ -34,6 +40,9 @@ GOAL = (4.5, 1.5)
 # Allowance: the follower slows to 0.6 m/s per metre left over its last metre, so its last
 # 0.5 m take up to 3 s; a shorter allowance would call the approach no progress.
 RETRIES, ALLOWANCE, WAIT = 2, 4.0, 0.5
+# A recovery's spin or back-up of a blocked robot fails after this long (s): braking from the
+# top speed (0.6 m/s at 0.5 m/s^2) takes 1.2 s of it before a back-up drives backwards.
+BEHAVIOR_ALLOWANCE = 2.0
 
 
 class Robot:
@@ -70,7 +79,7 @@ def rig(tmp_path):
         "patrol_planner:\n  ros__parameters:\n"
         '    map_yaml: ""\n    planner: astar\n'
         f"    progress_checker: {{movement_time_allowance: {ALLOWANCE}}}\n"
-        f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}}}\n"
+        f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
     )
     proc = start_node(domain, params, "patrol_planner_recovery_test.log")
     ros = Ros(domain, context=rclpy.Context())
@@ -119,10 +128,13 @@ def test_a_robot_that_makes_no_progress_is_recovered_then_given_up_on(rig):
     assert r.result.error_code == 105, (r.result.error_code, r.result.error_msg)
     assert "no progress" in r.result.error_msg, r.result.error_msg
     assert max(f.number_of_recoveries for f in feedback) == RETRIES
-    # Three tries of ALLOWANCE s each and two waits, not a drive's whole time limit.
-    assert took >= (RETRIES + 1) * ALLOWANCE + RETRIES * WAIT - 0.5, took
-    assert took < 30, took
+    # Three tries of ALLOWANCE s each and the recoveries between them, not a drive's whole time
+    # limit: spin (fails, blocked) then wait; back up (fails) then spin (fails) then wait.
+    assert took >= (RETRIES + 1) * ALLOWANCE + 3 * BEHAVIOR_ALLOWANCE + RETRIES * WAIT - 0.5, took
+    assert took < 35, took
     assert any(c.linear.x != 0.0 or c.angular.z != 0.0 for c in robot.cmds), "the node never drove"
+    assert any(c.linear.x == 0.0 and c.angular.z > 0.1 for c in robot.cmds), "no spin"
+    assert any(c.linear.x < -0.01 and c.angular.z == 0.0 for c in robot.cmds), "no back-up"
     ros.spin_until(lambda: robot.cmds[-1].linear.x == 0.0 and robot.cmds[-1].angular.z == 0.0, 5, "a stop")
 
     # Blocked until the first recovery, then free: reached, one recovery reported.
@@ -156,3 +168,71 @@ def test_a_robot_that_makes_no_progress_is_recovered_then_given_up_on(rig):
     stopped = len(robot.cmds)
     ros.spin_for(1.5)
     assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in robot.cmds[stopped:]), "driving again"
+
+
+def behave(ros, client, goal, timeout):
+    feedback = []
+    sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback))
+    handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "the goal's acceptance")
+    assert handle.accepted
+    result = handle.get_result_async()
+    ros.spin_until(result.done, timeout, "the goal's result")
+    return result.result(), feedback
+
+
+def test_the_behavior_servers_actions(rig):
+    ros, robot, _ = rig
+    robot.blocked = False
+    spin = ActionClient(ros.node, Spin, "spin")
+    backup = ActionClient(ros.node, BackUp, "backup")
+    wait = ActionClient(ros.node, Wait, "wait")
+    # Probes the node refuses at once without touching the robot.
+    ros.wait_action_answers(spin, Spin.Goal(target_yaw=float("nan")), "the spin action")
+    sideways = BackUp.Goal(speed=0.1)
+    sideways.target.y = 0.3
+    ros.wait_action_answers(backup, sideways, "the backup action")
+    ros.wait_action_answers(wait, Wait.Goal(), "the wait action")
+
+    r, _ = behave(ros, backup, sideways, 10)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 713), r.result.error_msg
+
+    # A quarter turn to the left on the spot.
+    yaw0 = robot.yaw
+    goal = Spin.Goal(target_yaw=1.57)
+    goal.time_allowance.sec = 15
+    r, feedback = behave(ros, spin, goal, 30)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, 0), r.result.error_msg
+    assert abs(robot.yaw - yaw0 - 1.57) < 0.1, robot.yaw
+    assert math.hypot(robot.x - START[0], robot.y - START[1]) < 1e-6
+    assert feedback and abs(feedback[-1].angular_distance_traveled - 1.57) < 0.15, feedback[-1:]
+    assert r.result.total_elapsed_time.sec >= 3  # 1.57 rad at up to 0.4 rad/s
+
+    # Straight back 0.3 m at 0.15 m/s (facing +y: back to -y).
+    x0, y0 = robot.x, robot.y
+    goal = BackUp.Goal(speed=0.15)
+    goal.target.x = 0.3
+    goal.time_allowance.sec = 15
+    r, feedback = behave(ros, backup, goal, 30)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, 0), r.result.error_msg
+    assert abs(robot.y - (y0 - 0.3)) < 0.05 and abs(robot.x - x0) < 0.02, (robot.x, robot.y)
+    assert feedback and abs(feedback[-1].distance_traveled - 0.3) < 0.05
+
+    # Backing up towards the pillar (x 2.5-3.0 m, y 2-3 m) from 0.5 m east of it, facing east:
+    # the robot stops short of touching it (its radius 0.25 m) and the goal fails.
+    robot.x, robot.y, robot.yaw = 3.5, 2.5, 0.0
+    ros.spin_for(0.5)
+    goal.target.x = 1.0
+    r, _ = behave(ros, backup, goal, 30)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 714), r.result.error_msg
+    assert "collision ahead" in r.result.error_msg
+    assert robot.x > 3.2, robot.x
+    ros.spin_until(lambda: robot.cmds[-1].linear.x == 0.0 and robot.cmds[-1].angular.z == 0.0, 5, "a stop")
+
+    # A wait waits, and says how long is left.
+    goal = Wait.Goal()
+    goal.time.sec = 1
+    t0 = time.time()
+    r, feedback = behave(ros, wait, goal, 10)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED
+    assert time.time() - t0 >= 1.0
+    assert feedback and feedback[0].time_left.sec + feedback[0].time_left.nanosec * 1e-9 > 0.5

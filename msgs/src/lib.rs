@@ -423,7 +423,59 @@ pub mod nav2_msgs {
         pub distance_remaining: f32,
         pub number_of_poses_remaining: i16,
     }
+    /// nav2_msgs/action/Spin goal (Jazzy)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct SpinGoal {
+        /// The angle to turn through (rad, counter-clockwise if positive).
+        pub target_yaw: f32,
+        /// 0: no limit.
+        pub time_allowance: Duration,
+    }
+    /// nav2_msgs/action/Spin result (Jazzy's codes: NONE 0, UNKNOWN 700, TIMEOUT 701, TF_ERROR
+    /// 702, COLLISION_AHEAD 703), and BackUp's (710-714), Wait's: the same fields
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct BehaviorResult {
+        pub total_elapsed_time: Duration,
+        pub error_code: u16,
+        pub error_msg: String,
+    }
+    /// nav2_msgs/action/Spin feedback
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct SpinFeedback {
+        pub angular_distance_traveled: f32,
+    }
+    /// nav2_msgs/action/BackUp goal (Jazzy): only `target.x` may be non-zero; its magnitude
+    /// and the speed's are taken
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct BackUpGoal {
+        pub target: super::geometry_msgs::Point,
+        pub speed: f32,
+        /// 0: no limit.
+        pub time_allowance: Duration,
+    }
+    /// nav2_msgs/action/BackUp feedback
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct BackUpFeedback {
+        pub distance_traveled: f32,
+    }
+    /// nav2_msgs/action/Wait goal
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct WaitGoal {
+        pub time: Duration,
+    }
+    /// nav2_msgs/action/Wait feedback
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct WaitFeedback {
+        pub time_left: Duration,
+    }
     messages!(
+        SpinGoal,
+        BehaviorResult,
+        SpinFeedback,
+        BackUpGoal,
+        BackUpFeedback,
+        WaitGoal,
+        WaitFeedback,
         NavigateToPoseGoal,
         NavigateToPoseResult,
         NavigateToPoseFeedback,

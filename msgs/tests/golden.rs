@@ -516,4 +516,75 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::NAVIGATE_THROUGH_POSES_FEEDBACK,
     );
+    let d = |sec, nanosec| Duration { sec, nanosec };
+    check(
+        "Spin goal",
+        SpinGoal {
+            target_yaw: 1.5,
+            time_allowance: d(10, 20),
+        },
+        g::SPIN_GOAL,
+    );
+    check(
+        "Spin result",
+        BehaviorResult {
+            total_elapsed_time: d(4, 30),
+            error_code: 703,
+            error_msg: "collision ahead".into(),
+        },
+        g::SPIN_RESULT,
+    );
+    check(
+        "Spin feedback",
+        SpinFeedback {
+            angular_distance_traveled: 0.75,
+        },
+        g::SPIN_FEEDBACK,
+    );
+    check(
+        "BackUp goal",
+        BackUpGoal {
+            target: Point {
+                x: 0.3,
+                y: 0.0,
+                z: 0.0,
+            },
+            speed: 0.15,
+            time_allowance: d(10, 40),
+        },
+        g::BACKUP_GOAL,
+    );
+    check(
+        "BackUp result",
+        BehaviorResult {
+            total_elapsed_time: d(2, 50),
+            error_code: 714,
+            error_msg: "collision ahead".into(),
+        },
+        g::BACKUP_RESULT,
+    );
+    check(
+        "BackUp feedback",
+        BackUpFeedback {
+            distance_traveled: 0.25,
+        },
+        g::BACKUP_FEEDBACK,
+    );
+    check("Wait goal", WaitGoal { time: d(5, 60) }, g::WAIT_GOAL);
+    check(
+        "Wait result",
+        BehaviorResult {
+            total_elapsed_time: d(5, 70),
+            error_code: 0,
+            error_msg: String::new(),
+        },
+        g::WAIT_RESULT,
+    );
+    check(
+        "Wait feedback",
+        WaitFeedback {
+            time_left: d(3, 80),
+        },
+        g::WAIT_FEEDBACK,
+    );
 }

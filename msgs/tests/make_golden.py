@@ -14,8 +14,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import (ComputePathThroughPoses, ComputePathToPose, FollowWaypoints, NavigateThroughPoses,
-                              NavigateToPose)
+from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose, FollowWaypoints,
+                              NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import IsPathValid
 
@@ -127,6 +127,29 @@ def messages():
     f.navigation_time.sec, f.navigation_time.nanosec = 3, 250
     f.estimated_time_remaining.sec, f.estimated_time_remaining.nanosec = 7, 500
     out["NAVIGATE_THROUGH_POSES_FEEDBACK"] = f
+    g = Spin.Goal(target_yaw=1.5)
+    g.time_allowance.sec, g.time_allowance.nanosec = 10, 20
+    out["SPIN_GOAL"] = g
+    r = Spin.Result(error_code=703, error_msg="collision ahead")
+    r.total_elapsed_time.sec, r.total_elapsed_time.nanosec = 4, 30
+    out["SPIN_RESULT"] = r
+    out["SPIN_FEEDBACK"] = Spin.Feedback(angular_distance_traveled=0.75)
+    g = BackUp.Goal(target=Point(x=0.3, y=0.0, z=0.0), speed=0.15)
+    g.time_allowance.sec, g.time_allowance.nanosec = 10, 40
+    out["BACKUP_GOAL"] = g
+    r = BackUp.Result(error_code=714, error_msg="collision ahead")
+    r.total_elapsed_time.sec, r.total_elapsed_time.nanosec = 2, 50
+    out["BACKUP_RESULT"] = r
+    out["BACKUP_FEEDBACK"] = BackUp.Feedback(distance_traveled=0.25)
+    g = Wait.Goal()
+    g.time.sec, g.time.nanosec = 5, 60
+    out["WAIT_GOAL"] = g
+    r = Wait.Result(error_code=0, error_msg="")
+    r.total_elapsed_time.sec, r.total_elapsed_time.nanosec = 5, 70
+    out["WAIT_RESULT"] = r
+    f = Wait.Feedback()
+    f.time_left.sec, f.time_left.nanosec = 3, 80
+    out["WAIT_FEEDBACK"] = f
     return out
 
 

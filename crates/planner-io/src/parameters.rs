@@ -58,6 +58,8 @@ pub struct NodeParams {
     /// What an action's drive does when it fails in a way a recovery may help, as bt_navigator's
     /// recovery tree does.
     pub recovery: RecoveryParams,
+    /// The spin, back-up and wait behaviours (as Nav2's behavior server).
+    pub behavior_server: BehaviorServerParams,
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
     pub enable_stamped_cmd_vel: bool,
@@ -110,25 +112,80 @@ pub struct NodeParams {
 }
 
 /// Recoveries of a navigate action's (or a patrol leg's) drive, as Nav2's default trees retry
-/// a navigation (`RecoveryNode number_of_retries="6"`) after a recovery (clearing the costmaps,
-/// a spin, a wait, a back-up): here the robot stops, waits `wait_duration`, and plans again from
-/// where it is, through the poses not yet passed. Only failures a recovery may help are tried
-/// again, as Nav2's `WouldAPlannerRecoveryHelp` and `WouldAControllerRecoveryHelp` decide: no
-/// valid path, a planner timeout, an unknown error, no progress.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// a navigation (`RecoveryNode number_of_retries="6"`) after a recovery behaviour taken in turn
+/// (`RoundRobin`: clearing the costmaps, a spin, a wait, a back-up): here the robot stops, makes
+/// the next of `behaviors` (one that fails, as a spin or back-up into an obstacle does, hands
+/// over to the one after it, as in the round robin), and plans again from where it is, through
+/// the poses not yet passed. Only failures a recovery may help are tried again, as Nav2's
+/// `WouldAPlannerRecoveryHelp` and `WouldAControllerRecoveryHelp` decide: no valid path, a
+/// planner timeout, an unknown error, no progress. Clearing the costmaps is not among them: the
+/// node's grid holds only the map (or Nav2's costmap, which Nav2 clears), nothing it marked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RecoveryParams {
     /// How many times a failed drive is tried again (Nav2's default trees: 6). 0: never.
     pub number_of_retries: u32,
-    /// How long (s) the robot waits, stopped, before it plans again (Nav2's Wait recovery: 5).
+    /// The behaviours, taken in turn, one per recovery (Nav2's tree: spin, wait, back-up).
+    pub behaviors: Vec<RecoveryBehavior>,
+    /// The spin's angle (rad; Nav2's tree: `spin_dist` 1.57).
+    pub spin_dist: f64,
+    /// The back-up's distance (m) and speed (m/s; Nav2's tree: 0.30 and 0.15).
+    pub backup_dist: f64,
+    pub backup_speed: f64,
+    /// How long (s) the robot waits, stopped (Nav2's tree: `wait_duration` 5).
     pub wait_duration: f64,
+    /// How long (s) a spin or back-up may take before it fails (the tree's `time_allowance`:
+    /// 10).
+    pub time_allowance: f64,
+}
+
+/// One of the recovery behaviours of Nav2's behavior server.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RecoveryBehavior {
+    /// Turn on the spot through `spin_dist`: lets a robot that lost its way see (and, with
+    /// AMCL, localise) around it, and faces it another way for the next plan.
+    Spin,
+    /// Stand still for `wait_duration`: lets a passer-by move on.
+    Wait,
+    /// Drive straight back `backup_dist` at `backup_speed`: out of a corner the follower could
+    /// not turn out of.
+    Backup,
 }
 
 impl Default for RecoveryParams {
     fn default() -> Self {
         Self {
             number_of_retries: 6,
+            behaviors: vec![
+                RecoveryBehavior::Spin,
+                RecoveryBehavior::Wait,
+                RecoveryBehavior::Backup,
+            ],
+            spin_dist: 1.57,
+            backup_dist: 0.30,
+            backup_speed: 0.15,
             wait_duration: 5.0,
+            time_allowance: 10.0,
+        }
+    }
+}
+
+/// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup` and `wait`
+/// actions and makes the recoveries' motions.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BehaviorServerParams {
+    /// How far ahead (s) a spin's or back-up's motion is checked against the costmap before
+    /// each command; a motion that would hit an obstacle within it stops and fails
+    /// (COLLISION_AHEAD). Nav2's default 2.
+    pub simulate_ahead_time: f64,
+}
+
+impl Default for BehaviorServerParams {
+    fn default() -> Self {
+        Self {
+            simulate_ahead_time: 2.0,
         }
     }
 }
@@ -148,6 +205,7 @@ impl Default for NodeParams {
             follower: FollowerParams::default(),
             progress_checker: ProgressParams::default(),
             recovery: RecoveryParams::default(),
+            behavior_server: BehaviorServerParams::default(),
             enable_stamped_cmd_vel: false,
             robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
@@ -208,12 +266,24 @@ impl NodeParams {
                     .into(),
             );
         }
-        if self.recovery.number_of_retries > 100
-            || !(0.0..=600.0).contains(&self.recovery.wait_duration)
+        let r = &self.recovery;
+        let within = |v: f64, lo: f64, hi: f64| (lo..=hi).contains(&v);
+        if r.number_of_retries > 100
+            || !within(r.wait_duration, 0.0, 600.0)
+            || !within(r.time_allowance, 0.1, 600.0)
+            || !within(r.spin_dist.abs(), 0.0, 4.0 * std::f64::consts::PI)
+            || !within(r.backup_dist, 0.01, 5.0)
+            || !within(r.backup_speed, 0.01, 1.0)
+            || (r.number_of_retries > 0 && r.behaviors.is_empty())
+            || r.behaviors.len() > 16
         {
             return Err(
-                "recovery: number_of_retries at most 100, wait_duration within 0..=600 s".into(),
+                "recovery: number_of_retries at most 100, wait_duration within 0..=600 s, time_allowance within 0.1..=600 s, spin_dist within +-4 pi rad, backup_dist within 0.01..=5 m, backup_speed within 0.01..=1 m/s, behaviors 1 to 16 of spin, wait, backup"
+                    .into(),
             );
+        }
+        if !within(self.behavior_server.simulate_ahead_time, 0.0, 10.0) {
+            return Err("behavior_server: simulate_ahead_time within 0..=10 s".into());
         }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
             return Err("map_to_odom must be finite".into());
@@ -679,6 +749,17 @@ mod tests {
         assert_eq!(node.progress_checker.movement_time_allowance, 4.0);
         assert_eq!(node.progress_checker.required_movement_radius, 0.5);
         assert_eq!(node.recovery.number_of_retries, 2);
+        assert_eq!(node.recovery.behaviors.len(), 3);
+        let only = write(
+            "only_wait.yaml",
+            "    recovery: {behaviors: [wait, backup], backup_dist: 0.5}\n",
+        );
+        let r = load_parameter_file(&only).unwrap().node.recovery;
+        assert_eq!(
+            r.behaviors,
+            [RecoveryBehavior::Wait, RecoveryBehavior::Backup]
+        );
+        assert_eq!((r.backup_dist, r.backup_speed), (0.5, 0.15));
         for (name, block, key) in [
             (
                 "allow.yaml",
@@ -699,6 +780,23 @@ mod tests {
                 "wait.yaml",
                 "    recovery: {wait_duration: -1.0}\n",
                 "recovery",
+            ),
+            ("none.yaml", "    recovery: {behaviors: []}\n", "recovery"),
+            (
+                "dance.yaml",
+                "    recovery: {behaviors: [spin, dance]}\n",
+                "dance",
+            ),
+            (
+                "far.yaml",
+                "    recovery: {backup_dist: 50.0}\n",
+                "recovery",
+            ),
+            ("spin.yaml", "    recovery: {spin_dist: .inf}\n", "recovery"),
+            (
+                "ahead.yaml",
+                "    behavior_server: {simulate_ahead_time: -1.0}\n",
+                "behavior_server",
             ),
         ] {
             let err = load_parameter_file(&write(name, block))

@@ -6,21 +6,23 @@
 //! robot stops), the robot makes no progress (`progress_checker`, as controller_server's), or
 //! the time to drive it runs out. A failure a recovery may help (no progress or out of time,
 //! no valid path, a planner timeout or unknown error) is tried again after a recovery, as
-//! Nav2's trees retry (`recovery`): the robot stops, waits, and the drive plans again from where
-//! it is. `navigate_to_pose` is one drive; `navigate_through_poses` one through all its poses,
+//! Nav2's trees retry (`recovery`): the robot stops, spins, waits or backs up (behaviors.rs, in
+//! turn), and the drive plans again from where it is. `navigate_to_pose` is one drive; `navigate_through_poses` one through all its poses,
 //! as Nav2's through-poses tree plans one path through them and drives it without stopping at
 //! each (a replan or a retry goes through the poses not yet passed); `follow_waypoints` one per
 //! waypoint, stopping at each.
 
 use crate::action_server::GoalStop;
+use crate::behaviors::{self, Behavior, BehaviorEnd};
 use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
 use crate::state::{path_length, Handover, Shared};
 use chassis::limits::TwistLimits;
 use chassis::progress::ProgressChecker;
-use log::warn;
+use log::{info, warn};
 use planner_core::geometry::Pose2;
+use planner_io::parameters::RecoveryBehavior;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -85,9 +87,13 @@ const TICK: Duration = Duration::from_millis(100);
 /// facing) for goal `mine` (its claim on the robot, [`Shared::take_robot`]: a patrol takes it
 /// once for all its legs), calling `progress` each tick while the plan is followed and once at
 /// each recovery. A failure a recovery may help is tried again up to
-/// `recovery.number_of_retries` times, each after the robot has waited, stopped, for
-/// `recovery.wait_duration`, through the poses it has not passed yet. Callers check
-/// `follow_plan` first, before the goal takes the robot, and give at least one pose.
+/// `recovery.number_of_retries` times, each after a recovery behaviour (behaviors.rs), taken in
+/// turn from `recovery.behaviors` as Nav2's trees' round robin takes them: the robot stops and
+/// spins, waits or backs up, and the drive plans again from where it is, through the poses it
+/// has not passed yet. A behaviour that fails (a spin or back-up that would hit something, or
+/// runs out of time) hands over to the next; when every one has failed, so has the drive, with
+/// its own failure. Callers check `follow_plan` first, before the goal takes the robot, and
+/// give at least one pose.
 pub async fn drive_to<P, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,
@@ -101,7 +107,7 @@ where
     Fut: Future<Output = ()>,
 {
     let retries = s.params.recovery.number_of_retries;
-    let wait = Duration::from_secs_f64(s.params.recovery.wait_duration);
+    let mut turn = RoundRobin::new(s);
     let mut ahead = goals;
     let mut recoveries: u16 = 0;
     loop {
@@ -116,16 +122,12 @@ where
             return end;
         }
         recoveries += 1;
-        warn!(
-            "drive for goal {mine}: {}; recovery {recoveries} of {retries}: waiting {:.1} s, then \
-             planning again from where the robot is",
-            match &end {
-                DriveEnd::NotReached(why) => why.clone(),
-                DriveEnd::NoPlan(f) => f.message.clone(),
-                _ => unreachable!("only these may be helped"),
-            },
-            wait.as_secs_f64()
-        );
+        let why = match &end {
+            DriveEnd::NotReached(why) => why.clone(),
+            DriveEnd::NoPlan(f) => f.message.clone(),
+            _ => unreachable!("only these may be helped"),
+        };
+        warn!("drive for goal {mine}: {why}; recovery {recoveries} of {retries}");
         // The recovery is reported at once, even when no plan was followed (no path found):
         // from the last tick, or from where the robot is, the goal's straight distance away.
         let goal = ahead[ahead.len() - 1];
@@ -142,14 +144,13 @@ where
         if let Some(p) = report {
             progress(p).await;
         }
-        // The robot waits, stopped (drive_once stopped it), unless the goal ends meanwhile.
-        let waited = Instant::now();
-        while waited.elapsed() < wait {
-            tokio::time::sleep(TICK.min(wait.saturating_sub(waited.elapsed()))).await;
-            if stop.requested() {
-                return DriveEnd::Stopped;
-            }
-            if let Some(end) = taken(s, mine) {
+        // The robot (stopped by drive_once) makes the next behaviour that works.
+        match turn.recover(s, mine, stop).await {
+            Recovered::Yes => {}
+            Recovered::Stopped => return DriveEnd::Stopped,
+            Recovered::Taken(end) => return end,
+            Recovered::AllFailed(how) => {
+                warn!("drive for goal {mine}: every recovery failed ({how})");
                 return end;
             }
         }
@@ -160,9 +161,70 @@ where
     }
 }
 
+/// The recovery behaviours of one drive, taken in turn (Nav2's `RoundRobin`): each recovery
+/// starts with the one after the last that ran.
+struct RoundRobin {
+    behaviors: Vec<Behavior>,
+    allowance: Duration,
+    next: usize,
+}
+
+/// How one recovery went.
+enum Recovered {
+    Yes,
+    Stopped,
+    Taken(DriveEnd),
+    /// Every behaviour failed; how each did.
+    AllFailed(String),
+}
+
+impl RoundRobin {
+    fn new(s: &Shared) -> Self {
+        let r = &s.params.recovery;
+        let behaviors = r
+            .behaviors
+            .iter()
+            .map(|b| match b {
+                RecoveryBehavior::Spin => Behavior::Spin(r.spin_dist),
+                RecoveryBehavior::Wait => Behavior::Wait(Duration::from_secs_f64(r.wait_duration)),
+                RecoveryBehavior::Backup => Behavior::BackUp {
+                    distance: r.backup_dist,
+                    speed: r.backup_speed,
+                },
+            })
+            .collect();
+        Self {
+            behaviors,
+            allowance: Duration::from_secs_f64(r.time_allowance),
+            next: 0,
+        }
+    }
+
+    /// Makes behaviours in turn until one succeeds (or all have failed).
+    async fn recover(&mut self, s: &Arc<Shared>, mine: u64, stop: &GoalStop) -> Recovered {
+        let mut failures = Vec::new();
+        for _ in 0..self.behaviors.len() {
+            let behavior = self.behaviors[self.next];
+            self.next = (self.next + 1) % self.behaviors.len();
+            info!("drive for goal {mine}: recovery: {behavior}");
+            let no_progress = |_| async {};
+            match behaviors::run(s, behavior, Some(self.allowance), mine, stop, no_progress).await {
+                BehaviorEnd::Succeeded => return Recovered::Yes,
+                BehaviorEnd::Stopped => return Recovered::Stopped,
+                BehaviorEnd::Taken(end) => return Recovered::Taken(end),
+                BehaviorEnd::Failed(_, why) => {
+                    warn!("drive for goal {mine}: recovery failed: {why}");
+                    failures.push(why);
+                }
+            }
+        }
+        Recovered::AllFailed(failures.join("; "))
+    }
+}
+
 /// Why a drive is no longer goal `mine`'s to go on with: the node was deactivated (its reason),
 /// or a newer goal took the robot.
-fn taken(s: &Shared, mine: u64) -> Option<DriveEnd> {
+pub(crate) fn taken(s: &Shared, mine: u64) -> Option<DriveEnd> {
     s.refusal()
         .map(DriveEnd::NoPlan)
         .or_else(|| (!s.owns_robot(mine)).then_some(DriveEnd::Superseded))

@@ -12,9 +12,10 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// The follower loop: at `control_rate_hz`, the next command for the plan being followed, from
-/// the latest `/odom`, within the twist and acceleration limits. It stops when odometry is stale
-/// and when the goal is reached (within position and heading tolerance).
+/// The follower loop: at `control_rate_hz`, the next command for the plan being followed (or,
+/// with none, for a behaviour's motion: behaviors.rs), from the latest `/odom`, within the twist
+/// and acceleration limits. It stops when odometry is stale and when the goal is reached (within
+/// position and heading tolerance) or the motion done.
 ///
 /// Every drive ends on an exact zero command, as Nav2's controller ends one: when the goal is
 /// reached, or the plan fails, the loop keeps braking within the acceleration limits until it
@@ -37,10 +38,14 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
         let cmd = {
             let mut guard = s.follower.lock().expect("lock");
             match (guard.as_mut(), pose) {
-                // No plan, and the last command sent was a stop: nothing to say.
-                (None, _) if previous == Twist2::STOP => continue,
-                // The drive ended (goal reached, plan failed): brake down to a stop.
-                (None, _) => Twist2::STOP,
+                // No plan: a behaviour's motion (a spin, a back-up), if one is going.
+                (None, _) => match motion_command(&s, pose) {
+                    Some(cmd) => cmd,
+                    // Nothing going, and the last command sent was a stop: nothing to say.
+                    None if previous == Twist2::STOP => continue,
+                    // The drive ended (goal reached, plan failed): brake down to a stop.
+                    None => Twist2::STOP,
+                },
                 (Some(_), None) => {
                     if !stale_reported {
                         warn!("following paused: no /odom for {} s", s.params.pose_timeout);
@@ -95,4 +100,25 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
         s.moving.store(applied != Twist2::STOP, Ordering::SeqCst);
         o.drive(&s, applied).await;
     }
+}
+
+/// The command for the behaviour's motion going on, if one is: a stop while odometry is stale
+/// (the behaviour then fails for want of a pose) or once the motion is done, which the motion
+/// records for its behaviour to see.
+fn motion_command(s: &Shared, pose: Option<planner_core::geometry::Pose2>) -> Option<Twist2> {
+    let mut motion = s.motion.lock().expect("lock");
+    let moving = motion.as_mut()?;
+    let Some(p) = pose else {
+        return Some(Twist2::STOP);
+    };
+    let (cmd, status) = moving.motion.command(
+        &chassis::Pose {
+            x: p.x,
+            y: p.y,
+            yaw: p.yaw,
+        },
+        &s.params.twist_limits,
+    );
+    moving.status = status;
+    Some(cmd)
 }

@@ -64,6 +64,7 @@ pub async fn change_state(
         if *s.lifecycle.read().expect("lock") != State::Active {
             *s.follower.lock().expect("lock") = None;
             *s.followed.lock().expect("lock") = None;
+            *s.motion.lock().expect("lock") = None;
             s.end_topic_navigation();
         }
         if let Some(event) = event {

@@ -7,6 +7,7 @@
 
 mod action_server;
 mod actions;
+mod behaviors;
 mod convert;
 mod drive;
 mod follow;

@@ -42,10 +42,11 @@ use patrol_msgs::lifecycle_msgs::{
 };
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
-    ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, EmptyFeedback,
-    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
-    IsPathValidResponse, NavigateThroughPosesFeedback, NavigateThroughPosesGoal,
-    NavigateThroughPosesResult, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult,
+    BackUpFeedback, BackUpGoal, BehaviorResult, ComputePathResult, ComputePathThroughPosesGoal,
+    ComputePathToPoseGoal, EmptyFeedback, FollowWaypointsFeedback, FollowWaypointsGoal,
+    FollowWaypointsResult, IsPathValidRequest, IsPathValidResponse, NavigateThroughPosesFeedback,
+    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
+    NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -324,6 +325,31 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         &ActionTypeName::new("nav2_msgs", "FollowWaypoints"),
         action_qos(),
     )?);
+    // Nav2's behavior server's actions (see behaviors.rs), under its names.
+    let spin = AsyncActionServer::new(
+        node.create_action_server::<SpinGoal, BehaviorResult, SpinFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("spin")?,
+            &ActionTypeName::new("nav2_msgs", "Spin"),
+            action_qos(),
+        )?,
+    );
+    let backup = AsyncActionServer::new(
+        node.create_action_server::<BackUpGoal, BehaviorResult, BackUpFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("backup")?,
+            &ActionTypeName::new("nav2_msgs", "BackUp"),
+            action_qos(),
+        )?,
+    );
+    let wait = AsyncActionServer::new(
+        node.create_action_server::<WaitGoal, BehaviorResult, WaitFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("wait")?,
+            &ActionTypeName::new("nav2_msgs", "Wait"),
+            action_qos(),
+        )?,
+    );
     let is_path_valid = node.create_server::<IsPathValidRequest, IsPathValidResponse>(
         ServiceMapping::Enhanced,
         &naming.name("is_path_valid")?,
@@ -542,6 +568,13 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         shared.clone(),
         out.clone(),
         navigate_through_poses,
+    ));
+    tasks.spawn(crate::behaviors::serve_all(
+        shared.clone(),
+        out.clone(),
+        spin,
+        backup,
+        wait,
     ));
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),

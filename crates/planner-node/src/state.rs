@@ -4,6 +4,7 @@
 
 use crate::localization::{compose, KnownFrames, Localization};
 use crate::result::{Failure, ResultCode};
+use chassis::behavior::{Motion, Status as MotionStatus};
 use chassis::follower::Follower;
 use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav_msgs::Path;
@@ -129,6 +130,9 @@ pub struct Shared {
     pub odom: RwLock<Option<(Pose2, Instant)>>,
     /// The plan being followed, if any.
     pub follower: Mutex<Option<Follower>>,
+    /// A behaviour's motion (a spin, a back-up: behaviors.rs), its goal's number and whether it
+    /// is done: driven by the follower loop while no plan is followed.
+    pub motion: Mutex<Option<Moving>>,
     /// The goal and path (map metres) of the plan being followed: checked again when a new
     /// map arrives, and replanned only when the new map blocks it.
     pub followed: Mutex<Option<Followed>>,
@@ -144,6 +148,16 @@ pub struct Shared {
     pub lifecycle: RwLock<crate::lifecycle::State>,
     /// The navigation going on, if any (see [`Shared::start_navigating`]).
     navigator: Mutex<Option<Navigation>>,
+}
+
+/// A behaviour's motion being driven.
+#[derive(Clone, Debug)]
+pub struct Moving {
+    /// The goal it is made for (a behaviour action's, or the drive it recovers).
+    pub owner: u64,
+    pub motion: Motion,
+    /// What the motion said at the last command.
+    pub status: MotionStatus,
 }
 
 /// A navigation: the navigate action it counts as, and its goal.
@@ -190,6 +204,7 @@ impl Shared {
             goals: AtomicU64::new(0),
             odom: RwLock::new(None),
             follower: Mutex::new(None),
+            motion: Mutex::new(None),
             followed: Mutex::new(None),
             failed_replan: Mutex::new(None),
             arrived: Mutex::new(None),
@@ -411,6 +426,39 @@ impl Shared {
         self.install_follower(owner, None, Install::NewGoal)
     }
 
+    /// Hands the robot a behaviour's motion for goal `owner`, in place of any plan being
+    /// followed, if `owner` still has the robot and the node is active; returns whether it did.
+    pub fn start_motion(&self, owner: u64, motion: Motion) -> bool {
+        let mut follower = self.follower.lock().expect("lock");
+        let mut followed = self.followed.lock().expect("lock");
+        if !self.owns_robot(owner) || self.refusal().is_some() {
+            return false;
+        }
+        *follower = None;
+        *followed = None;
+        *self.motion.lock().expect("lock") = Some(Moving {
+            owner,
+            motion,
+            status: MotionStatus::Running,
+        });
+        true
+    }
+
+    /// Goal `owner`'s motion as it is now, if it is still being driven.
+    pub fn motion_of(&self, owner: u64) -> Option<Moving> {
+        let motion = self.motion.lock().expect("lock");
+        motion.as_ref().filter(|m| m.owner == owner).cloned()
+    }
+
+    /// Ends goal `owner`'s motion, if it is still being driven: the follower loop brakes the
+    /// robot to a stop.
+    pub fn stop_motion(&self, owner: u64) {
+        let mut motion = self.motion.lock().expect("lock");
+        if motion.as_ref().is_some_and(|m| m.owner == owner) {
+            *motion = None;
+        }
+    }
+
     /// Stops a goal whose replan of the path `replaced` failed, if that path is still being
     /// followed, with the reason its drive reports.
     pub fn replan_failed(&self, owner: u64, replaced: &Arc<Vec<(f64, f64)>>, why: Failure) -> bool {
@@ -431,7 +479,8 @@ impl Shared {
 
     /// Under the follower's lock, so a newer goal's plan, installed meanwhile, is never
     /// overwritten by an older one's (the lock order everywhere: follower, then followed, then
-    /// lifecycle; the lifecycle services take the follower's lock only after releasing theirs).
+    /// motion; the lifecycle's is held alone: the lifecycle services take the follower's lock
+    /// only after releasing theirs).
     /// Only an active node is handed a path: a plan that finishes after a deactivation does not
     /// start the robot. Stopping is always allowed.
     fn install_follower(&self, owner: u64, next: Option<Handover>, how: Install) -> bool {
@@ -485,6 +534,7 @@ impl Shared {
         }
         *follower = Some(f);
         *followed = Some(plan);
+        *self.motion.lock().expect("lock") = None;
         true
     }
 
@@ -824,6 +874,40 @@ mod tests {
         assert!(s.follower.lock().unwrap().is_some());
         assert!(s.stop_following(new));
         assert!(s.follower.lock().unwrap().is_none() && s.followed.lock().unwrap().is_none());
+    }
+
+    /// A behaviour's motion stands in for the plan of the goal that has the robot: it replaces
+    /// that plan, a newer goal's plan replaces it, and an older goal can neither start nor end
+    /// one; an inactive node starts none.
+    #[test]
+    fn a_motion_belongs_to_the_goal_that_has_the_robot() {
+        let spin = || chassis::behavior::Motion::Spin(chassis::behavior::Spin::new(1.0).unwrap());
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let old = s.take_robot();
+        assert!(s.follow(old, to_goal(straight())));
+        assert!(s.start_motion(old, spin()));
+        assert!(s.follower.lock().unwrap().is_none() && s.followed.lock().unwrap().is_none());
+        assert!(s.motion_of(old).is_some());
+        let new = s.take_robot();
+        assert!(
+            !s.start_motion(old, spin()),
+            "the older goal's motion came late"
+        );
+        s.stop_motion(new);
+        assert!(
+            s.motion_of(old).is_some(),
+            "another goal's stop leaves it be"
+        );
+        assert!(s.follow(new, to_goal(straight())));
+        assert!(
+            s.motion.lock().unwrap().is_none(),
+            "the newer goal's plan replaced it"
+        );
+        assert!(s.start_motion(new, spin()));
+        s.stop_motion(new);
+        assert!(s.motion.lock().unwrap().is_none());
+        *s.lifecycle.write().unwrap() = crate::lifecycle::State::Inactive;
+        assert!(!s.start_motion(new, spin()));
     }
 
     #[test]

@@ -1,0 +1,492 @@
+//! Nav2's behavior server (nav2_behaviors): `spin` turns the robot on the spot, `backup` drives
+//! it straight back, `wait` keeps it standing. Served as Nav2's actions (nav2_msgs, Jazzy), as
+//! nav2_simple_commander's `spin()` and `backup()` and the behaviour trees' Spin, BackUp and
+//! Wait nodes send them, and made by a drive's recoveries (drive.rs) in turn, as Nav2's default
+//! trees' round robin makes them.
+//!
+//! A motion is made by the node's control loop (follow.rs, from the chassis crate's
+//! `behavior` state machines); the behaviour watches it each tick, as nav2_behaviors'
+//! `onCycleUpdate` does: it ends when the motion is done, fails with TIMEOUT past its time
+//! allowance, with TF_ERROR when odometry stops, and with COLLISION_AHEAD, stopping first, when a
+//! pose the robot would pass within `behavior_server.simulate_ahead_time` is within the robot's
+//! radius of an obstacle on the grid the node plans on. A spin or back-up goal takes the robot as
+//! any goal does (a newer goal of any kind takes it back); a wait goal only waits, as Nav2's. A
+//! client's cancel stops a behaviour (canceled), a newer goal of the same action preempts it
+//! (aborted), as Nav2's behaviours end.
+
+use crate::action_server::{Feedback, GoalStop};
+use crate::convert::duration_msg;
+use crate::drive::{taken, DriveEnd};
+use crate::outputs::Outputs;
+use crate::state::Shared;
+use chassis::behavior::{BackUp, Motion, Spin, Status as MotionStatus};
+use log::{info, warn};
+use patrol_msgs::builtin_interfaces::Duration as DurationMsg;
+use patrol_msgs::nav2_msgs::{
+    BackUpFeedback, BackUpGoal, BehaviorResult, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
+};
+use planner_core::geometry::{Point2, Pose2};
+use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use std::future::Future;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How often a behaviour checks on its motion and reports.
+const TICK: Duration = Duration::from_millis(100);
+
+/// The spacing (s of motion) of the poses checked ahead, as nav2_behaviors' `cycle_frequency`
+/// (10 Hz) spaces them.
+const AHEAD_STEP_S: f64 = 0.1;
+
+/// One behaviour, as its action's goal or a recovery asks for it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Behavior {
+    /// Turn on the spot through this angle (rad, counter-clockwise if positive).
+    Spin(f64),
+    /// Drive straight back this far (m) at this speed (m/s).
+    BackUp { distance: f64, speed: f64 },
+    /// Stand still this long.
+    Wait(Duration),
+}
+
+impl std::fmt::Display for Behavior {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Behavior::Spin(a) => write!(f, "spin {a:.2} rad"),
+            Behavior::BackUp { distance, speed } => {
+                write!(f, "back up {distance:.2} m at {speed:.2} m/s")
+            }
+            Behavior::Wait(d) => write!(f, "wait {:.1} s", d.as_secs_f64()),
+        }
+    }
+}
+
+impl Behavior {
+    /// The motion it makes (`None`: a wait), or why it cannot: a spin's angle must be finite,
+    /// a back-up's distance and speed finite and not zero.
+    pub fn motion(&self) -> Result<Option<Motion>, String> {
+        let motion = match *self {
+            Behavior::Wait(_) => return Ok(None),
+            Behavior::Spin(angle) => Spin::new(angle).map(Motion::Spin),
+            Behavior::BackUp { distance, speed } => {
+                BackUp::new(distance, speed).map(Motion::BackUp)
+            }
+        };
+        motion.map(Some).ok_or_else(|| {
+            format!("{self}: the angle, distance and speed must be finite and not zero")
+        })
+    }
+}
+
+/// Why a behaviour failed, as nav2_behaviors' result codes name it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BehaviorFailure {
+    Unknown,
+    Timeout,
+    /// No fresh robot pose (odometry stopped).
+    TfError,
+    InvalidInput,
+    CollisionAhead,
+}
+
+/// How a behaviour ended.
+#[derive(Debug)]
+pub enum BehaviorEnd {
+    Succeeded,
+    Failed(BehaviorFailure, String),
+    /// Stopped on request (cancel, preemption); the robot brakes to a stop.
+    Stopped,
+    /// The goal lost the robot: a newer goal took it, or the node was deactivated.
+    Taken(DriveEnd),
+}
+
+/// Makes `behavior` for goal `mine` (which must have the robot), calling `progress` each tick
+/// with the angle turned (rad), the distance driven (m) or the time left (s). A spin or back-up
+/// fails past `allowance` (`None`: no limit).
+pub async fn run<P, Fut>(
+    s: &Arc<Shared>,
+    behavior: Behavior,
+    allowance: Option<Duration>,
+    mine: u64,
+    stop: &GoalStop,
+    mut progress: P,
+) -> BehaviorEnd
+where
+    P: FnMut(f64) -> Fut,
+    Fut: Future<Output = ()>,
+{
+    let started = Instant::now();
+    let motion = match behavior.motion() {
+        Ok(Some(motion)) => motion,
+        Ok(None) => return wait(behavior, || interrupted(s, mine, stop), progress).await,
+        Err(why) => return BehaviorEnd::Failed(BehaviorFailure::InvalidInput, why),
+    };
+    let Some(pose) = fresh_pose(s) else {
+        return BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
+    };
+    if let Some(why) = collision_ahead(s, &motion, pose) {
+        return BehaviorEnd::Failed(BehaviorFailure::CollisionAhead, why);
+    }
+    if !s.start_motion(mine, motion) {
+        return taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
+    }
+    info!("goal {mine}: {behavior}");
+    let end = loop {
+        tokio::time::sleep(TICK).await;
+        if let Some(end) = interrupted(s, mine, stop) {
+            break end;
+        }
+        let Some(moving) = s.motion_of(mine) else {
+            // Ended by a newer goal's plan or a deactivation in between.
+            break taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
+        };
+        progress(moving.motion.progress()).await;
+        if moving.status == MotionStatus::Done {
+            break BehaviorEnd::Succeeded;
+        }
+        if allowance.is_some_and(|a| started.elapsed() > a) {
+            break BehaviorEnd::Failed(
+                BehaviorFailure::Timeout,
+                format!(
+                    "{behavior}: not done within its time allowance ({:.1} s)",
+                    allowance.unwrap_or_default().as_secs_f64()
+                ),
+            );
+        }
+        let Some(pose) = fresh_pose(s) else {
+            break BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
+        };
+        if let Some(why) = collision_ahead(s, &moving.motion, pose) {
+            break BehaviorEnd::Failed(BehaviorFailure::CollisionAhead, why);
+        }
+    };
+    // Every way out stops the robot (a newer goal's own plan or motion is left be).
+    s.stop_motion(mine);
+    end
+}
+
+/// A wait of `behavior`'s duration (none for a motion), ended early by what `interrupted` says.
+async fn wait<P, Fut>(
+    behavior: Behavior,
+    interrupted: impl Fn() -> Option<BehaviorEnd>,
+    mut progress: P,
+) -> BehaviorEnd
+where
+    P: FnMut(f64) -> Fut,
+    Fut: Future<Output = ()>,
+{
+    let started = Instant::now();
+    let d = match behavior {
+        Behavior::Wait(d) => d,
+        _ => Duration::ZERO,
+    };
+    while started.elapsed() < d {
+        if let Some(end) = interrupted() {
+            return end;
+        }
+        progress(d.saturating_sub(started.elapsed()).as_secs_f64()).await;
+        tokio::time::sleep(TICK.min(d.saturating_sub(started.elapsed()))).await;
+    }
+    BehaviorEnd::Succeeded
+}
+
+/// A stop asked for, or the robot no longer this goal's.
+fn interrupted(s: &Shared, mine: u64, stop: &GoalStop) -> Option<BehaviorEnd> {
+    if stop.requested() {
+        return Some(BehaviorEnd::Stopped);
+    }
+    taken(s, mine).map(BehaviorEnd::Taken)
+}
+
+/// The robot's pose from odometry no older than `pose_timeout`.
+fn fresh_pose(s: &Shared) -> Option<Pose2> {
+    s.odom
+        .read()
+        .expect("lock")
+        .filter(|(_, t)| t.elapsed().as_secs_f64() <= s.params.pose_timeout)
+        .map(|(p, _)| p)
+}
+
+fn no_pose() -> String {
+    "the robot's pose is not available: no fresh /odom".into()
+}
+
+/// Why the motion may not go on from `pose`, if it may not: a pose it would pass within
+/// `behavior_server.simulate_ahead_time` is off the map, or within the robot's radius of an
+/// obstacle on the grid the node plans on (the robot would touch it: the planner's wider
+/// inflated band is where a path may not run, not where the robot may not be), or there is no
+/// map to check against.
+fn collision_ahead(s: &Shared, motion: &Motion, pose: Pose2) -> Option<String> {
+    let Some(map) = s.map.read().expect("lock").clone() else {
+        return Some("no map to check the motion against".into());
+    };
+    let radius = s.live.read().expect("lock").config.costmap.robot_radius;
+    let ahead = motion.ahead(
+        &chassis::Pose {
+            x: pose.x,
+            y: pose.y,
+            yaw: pose.yaw,
+        },
+        &s.params.twist_limits,
+        s.params.behavior_server.simulate_ahead_time,
+        AHEAD_STEP_S,
+    );
+    let grid = &map.grid;
+    ahead.iter().find_map(|p| {
+        let clear = grid
+            .cell_at(Point2::new(p.x, p.y))
+            .is_some_and(|c| grid.clearance(c) >= radius);
+        (!clear).then(|| {
+            format!(
+                "collision ahead: the robot would be within its radius ({radius} m) of an \
+                 obstacle at ({:.2}, {:.2})",
+                p.x, p.y
+            )
+        })
+    })
+}
+
+/// What the three actions' goals have in common.
+trait BehaviorGoal: ros2_client::Message + Clone + Send + Sync + 'static {
+    type Feedback: ros2_client::Message + Send + Sync + 'static;
+    const NAME: &'static str;
+    /// The action's UNKNOWN code; the others follow it in nav2_msgs' order.
+    const CODE_BASE: u16;
+    fn behavior(&self) -> Behavior;
+    /// Why the goal asks for what the behaviour cannot do, if it does.
+    fn refusal(&self) -> Option<String> {
+        None
+    }
+    fn allowance(&self) -> Option<Duration>;
+    fn feedback(progress: f64) -> Self::Feedback;
+    /// The action's code for a failure.
+    fn code(f: BehaviorFailure) -> u16;
+}
+
+/// A goal's `time_allowance`: zero (or negative) is no limit, as in nav2_behaviors.
+fn allowance(d: &DurationMsg) -> Option<Duration> {
+    let secs = f64::from(d.sec) + f64::from(d.nanosec) * 1e-9;
+    (secs > 0.0).then(|| Duration::from_secs_f64(secs))
+}
+
+impl BehaviorGoal for SpinGoal {
+    type Feedback = SpinFeedback;
+    const NAME: &'static str = "spin";
+    const CODE_BASE: u16 = 700;
+    fn behavior(&self) -> Behavior {
+        Behavior::Spin(f64::from(self.target_yaw))
+    }
+    fn allowance(&self) -> Option<Duration> {
+        allowance(&self.time_allowance)
+    }
+    fn feedback(progress: f64) -> SpinFeedback {
+        SpinFeedback {
+            angular_distance_traveled: progress as f32,
+        }
+    }
+    /// UNKNOWN 700, TIMEOUT 701, TF_ERROR 702, COLLISION_AHEAD 703 (no INVALID_INPUT).
+    fn code(f: BehaviorFailure) -> u16 {
+        Self::CODE_BASE
+            + match f {
+                BehaviorFailure::Unknown | BehaviorFailure::InvalidInput => 0,
+                BehaviorFailure::Timeout => 1,
+                BehaviorFailure::TfError => 2,
+                BehaviorFailure::CollisionAhead => 3,
+            }
+    }
+}
+
+impl BehaviorGoal for BackUpGoal {
+    type Feedback = BackUpFeedback;
+    const NAME: &'static str = "backup";
+    const CODE_BASE: u16 = 710;
+    /// Backwards whatever the signs, as nav2_behaviors' BackUp takes both magnitudes.
+    fn behavior(&self) -> Behavior {
+        Behavior::BackUp {
+            distance: self.target.x.abs(),
+            speed: f64::from(self.speed).abs(),
+        }
+    }
+    /// As nav2_behaviors' BackUp: only along the robot's heading.
+    fn refusal(&self) -> Option<String> {
+        (self.target.y != 0.0 || self.target.z != 0.0)
+            .then(|| "backing up in y and z is not supported: only target.x is driven".into())
+    }
+    fn allowance(&self) -> Option<Duration> {
+        allowance(&self.time_allowance)
+    }
+    fn feedback(progress: f64) -> BackUpFeedback {
+        BackUpFeedback {
+            distance_traveled: progress as f32,
+        }
+    }
+    /// UNKNOWN 710, TIMEOUT 711, TF_ERROR 712, INVALID_INPUT 713, COLLISION_AHEAD 714.
+    fn code(f: BehaviorFailure) -> u16 {
+        Self::CODE_BASE
+            + match f {
+                BehaviorFailure::Unknown => 0,
+                BehaviorFailure::Timeout => 1,
+                BehaviorFailure::TfError => 2,
+                BehaviorFailure::InvalidInput => 3,
+                BehaviorFailure::CollisionAhead => 4,
+            }
+    }
+}
+
+impl BehaviorGoal for WaitGoal {
+    type Feedback = WaitFeedback;
+    const NAME: &'static str = "wait";
+    /// Jazzy's Wait result has no codes: a wait that cannot run says why with code 0.
+    const CODE_BASE: u16 = 0;
+    fn behavior(&self) -> Behavior {
+        Behavior::Wait(allowance(&self.time).unwrap_or_default())
+    }
+    fn allowance(&self) -> Option<Duration> {
+        None
+    }
+    fn feedback(progress: f64) -> WaitFeedback {
+        WaitFeedback {
+            time_left: duration_msg(Duration::from_secs_f64(progress.max(0.0))),
+        }
+    }
+    fn code(_: BehaviorFailure) -> u16 {
+        0
+    }
+}
+
+/// Serves one behaviour action until the node stops (the door: action_server.rs).
+async fn serve<G: BehaviorGoal>(
+    s: Arc<Shared>,
+    o: Outputs,
+    server: AsyncActionServer<G, BehaviorResult, G::Feedback>,
+) {
+    crate::action_server::serve(s, o, G::NAME, server, behave::<G>).await
+}
+
+/// Serves `spin`, `backup` and `wait` side by side.
+pub async fn serve_all(
+    s: Arc<Shared>,
+    o: Outputs,
+    spin: AsyncActionServer<SpinGoal, BehaviorResult, SpinFeedback>,
+    backup: AsyncActionServer<BackUpGoal, BehaviorResult, BackUpFeedback>,
+    wait: AsyncActionServer<WaitGoal, BehaviorResult, WaitFeedback>,
+) {
+    tokio::join!(
+        serve(s.clone(), o.clone(), spin),
+        serve(s.clone(), o.clone(), backup),
+        serve(s, o, wait),
+    );
+}
+
+/// One behaviour goal: it takes the robot, and its result says how it ended.
+async fn behave<G: BehaviorGoal>(
+    s: Arc<Shared>,
+    _o: Outputs,
+    goal: G,
+    stop: GoalStop,
+    feedback: Feedback<G, BehaviorResult, G::Feedback>,
+) -> (GoalEndStatus, BehaviorResult) {
+    let started = Instant::now();
+    let result = |error_code: u16, error_msg: String| BehaviorResult {
+        total_elapsed_time: duration_msg(started.elapsed()),
+        error_code,
+        error_msg,
+    };
+    let behavior = goal.behavior();
+    let moves = !matches!(behavior, Behavior::Wait(_));
+    if moves && !s.params.follow_plan {
+        let why = "follow_plan is false: this node drives nothing".to_string();
+        warn!("{}: {why}", G::NAME);
+        return (
+            GoalEndStatus::Aborted,
+            result(G::code(BehaviorFailure::Unknown), why),
+        );
+    }
+    // Refused before the goal takes the robot: a bad goal does not stop a good one.
+    if let Some(why) = goal.refusal().or_else(|| behavior.motion().err()) {
+        warn!("{}: {why}", G::NAME);
+        return (
+            GoalEndStatus::Aborted,
+            result(G::code(BehaviorFailure::InvalidInput), why),
+        );
+    }
+    let progress = |p: f64| {
+        let feedback = feedback.clone();
+        async move { feedback.send(G::feedback(p)).await }
+    };
+    let end = if moves {
+        let mine = s.take_robot();
+        run(&s, behavior, goal.allowance(), mine, &stop, progress).await
+    } else {
+        // A wait only waits, as nav2_behaviors' Wait: it does not take the robot from a drive.
+        let refused = || s.refusal().map(|f| BehaviorEnd::Taken(DriveEnd::NoPlan(f)));
+        let interrupted = || {
+            stop.requested()
+                .then_some(BehaviorEnd::Stopped)
+                .or_else(refused)
+        };
+        wait(behavior, interrupted, progress).await
+    };
+    match end {
+        BehaviorEnd::Succeeded => {
+            info!("{}: {behavior}: done", G::NAME);
+            (GoalEndStatus::Succeeded, result(0, String::new()))
+        }
+        BehaviorEnd::Stopped => (stop.end_status(), result(0, stop.reason().into())),
+        BehaviorEnd::Failed(f, why) => {
+            warn!("{}: {why}", G::NAME);
+            (GoalEndStatus::Aborted, result(G::code(f), why))
+        }
+        BehaviorEnd::Taken(end) => {
+            let why = match end {
+                DriveEnd::NoPlan(f) => f.message,
+                _ => "preempted by a newer goal on /goal_pose or another action".into(),
+            };
+            (
+                GoalEndStatus::Aborted,
+                result(G::code(BehaviorFailure::Unknown), why),
+            )
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_actions_codes_are_jazzys() {
+        use BehaviorFailure::*;
+        let spin: Vec<u16> = [Unknown, Timeout, TfError, CollisionAhead, InvalidInput]
+            .map(SpinGoal::code)
+            .into();
+        assert_eq!(spin, [700, 701, 702, 703, 700]);
+        let back: Vec<u16> = [Unknown, Timeout, TfError, InvalidInput, CollisionAhead]
+            .map(BackUpGoal::code)
+            .into();
+        assert_eq!(back, [710, 711, 712, 713, 714]);
+        assert_eq!(WaitGoal::code(Timeout), 0);
+    }
+
+    #[test]
+    fn a_back_up_goal_backs_up_whatever_its_signs() {
+        let mut g = BackUpGoal {
+            speed: 0.2,
+            ..Default::default()
+        };
+        g.target.x = 0.4;
+        let b = g.behavior();
+        g.target.x = -0.4;
+        g.speed = -0.2;
+        assert_eq!(g.behavior(), b);
+        assert!(matches!(b, Behavior::BackUp { distance, speed }
+            if (distance - 0.4).abs() < 1e-9 && (speed - 0.2).abs() < 1e-6));
+        assert_eq!(g.refusal(), None);
+        g.target.y = 0.1;
+        assert!(g.refusal().is_some());
+        // No allowance given: none.
+        assert_eq!(g.allowance(), None);
+        g.time_allowance.sec = 3;
+        assert_eq!(g.allowance(), Some(Duration::from_secs(3)));
+    }
+}
