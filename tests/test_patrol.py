@@ -73,6 +73,17 @@ def test_the_bundled_patrol_twice_in_the_best_order_on_time_with_the_missed_poin
         ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
         ros.spin_until(lambda: client.server_is_ready(), 45, "the follow_waypoints action")
+        # Refused as Nav2's waypoint follower aborts them: no waypoints, and a goal_index past
+        # the last one.
+        bad = FollowWaypoints.Goal()
+        for poses, index, words in (([], 0, "no waypoints"), ([stamped(*WAYPOINTS[0])], 1, "goal_index")):
+            bad.poses, bad.goal_index = poses, index
+            sent = client.send_goal_async(bad)
+            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "the bad goal's acceptance")
+            result = handle.get_result_async()
+            ros.spin_until(result.done, 10, "the bad goal's result")
+            r = result.result()
+            assert (r.status, r.result.error_code) == (6, 600) and words in r.result.error_msg, r.result.error_msg
         goal = FollowWaypoints.Goal()
         goal.number_of_loops = 1
         goal.poses = [stamped(x, y, yaw) for x, y, yaw in WAYPOINTS]

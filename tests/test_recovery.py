@@ -217,15 +217,17 @@ def test_the_behavior_servers_actions(rig):
     assert abs(robot.y - (y0 - 0.3)) < 0.05 and abs(robot.x - x0) < 0.02, (robot.x, robot.y)
     assert feedback and abs(feedback[-1].distance_traveled - 0.3) < 0.05
 
-    # Backing up towards the pillar (x 2.5-3.0 m, y 2-3 m) from 0.5 m east of it, facing east:
-    # the robot stops short of touching it (its radius 0.25 m) and the goal fails.
-    robot.x, robot.y, robot.yaw = 3.5, 2.5, 0.0
+    # Backing up 1.5 m towards the pillar (x 2.5-3.0 m, y 2-3 m) from 0.9 m east of it, facing
+    # east: the robot backs up, then stops short of touching it (its radius 0.25 m: the check
+    # looks 2 s x 0.15 m/s ahead) and the goal fails.
+    robot.x, robot.y, robot.yaw = 3.9, 2.5, 0.0
     ros.spin_for(0.5)
-    goal.target.x = 1.0
-    r, _ = behave(ros, backup, goal, 30)
+    goal.target.x = 1.5
+    r, feedback = behave(ros, backup, goal, 30)
     assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 714), r.result.error_msg
     assert "collision ahead" in r.result.error_msg
-    assert robot.x > 3.2, robot.x
+    assert feedback and feedback[-1].distance_traveled > 0.2, feedback[-1:]
+    assert 3.2 < robot.x < 3.7, robot.x
     ros.spin_until(lambda: robot.cmds[-1].linear.x == 0.0 and robot.cmds[-1].angular.z == 0.0, 5, "a stop")
 
     # A wait waits, and says how long is left.

@@ -60,7 +60,8 @@ impl Spin {
             self.turned += wrap(pose.yaw - last);
         }
         self.last_yaw = Some(pose.yaw);
-        let remaining = self.target.abs() - self.turned.abs();
+        // Turning the other way (a robot still braking from a turn) counts against it.
+        let remaining = self.target.abs() - self.turned * self.target.signum();
         if remaining < 1e-6 {
             return (Twist2::STOP, Status::Done);
         }
@@ -76,8 +77,9 @@ impl Spin {
 }
 
 /// A straight drive backwards through `distance` m at up to `speed` m/s, as nav2_behaviors'
-/// BackUp (its DriveOnHeading backwards): the distance driven is the straight distance from
-/// where it began, and the speed falls as `sqrt(2 * max_linear_accel * remaining)` near the end.
+/// BackUp (its DriveOnHeading backwards): the distance driven is measured backwards along the
+/// heading it began with (a robot still rolling forward has driven less than nothing), and the
+/// speed falls as `sqrt(2 * max_linear_accel * remaining)` near the end.
 #[derive(Clone, Debug)]
 pub struct BackUp {
     distance: f64,
@@ -88,10 +90,10 @@ pub struct BackUp {
 
 impl BackUp {
     /// A back-up through `distance` m at `speed` m/s (both taken as magnitudes, as Nav2's BackUp
-    /// takes them); `None` unless both are finite and not zero.
+    /// takes them; a distance of 0 is done at once, as there); `None` unless both are finite
+    /// and the speed not zero (it would never get there).
     pub fn new(distance: f64, speed: f64) -> Option<Self> {
-        let ok = |v: f64| v.is_finite() && v != 0.0;
-        (ok(distance) && ok(speed)).then_some(Self {
+        (distance.is_finite() && speed.is_finite() && speed != 0.0).then_some(Self {
             distance: distance.abs(),
             speed: speed.abs(),
             from: None,
@@ -107,7 +109,7 @@ impl BackUp {
     /// Takes the pose and gives the command: backwards, or a stop once it has driven far enough.
     pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
         let from = *self.from.get_or_insert(*pose);
-        self.driven = (pose.x - from.x).hypot(pose.y - from.y);
+        self.driven = -((pose.x - from.x) * from.yaw.cos() + (pose.y - from.y) * from.yaw.sin());
         let remaining = self.distance - self.driven;
         if remaining <= 0.0 {
             return (Twist2::STOP, Status::Done);
@@ -291,13 +293,34 @@ mod tests {
     #[test]
     fn motions_that_go_nowhere_are_refused() {
         assert!(Spin::new(f64::NAN).is_none() && Spin::new(f64::INFINITY).is_none());
-        assert!(BackUp::new(0.0, 0.1).is_none() && BackUp::new(0.3, 0.0).is_none());
-        assert!(BackUp::new(f64::NAN, 0.1).is_none());
-        // A zero spin is done at once.
+        assert!(BackUp::new(0.3, 0.0).is_none() && BackUp::new(f64::NAN, 0.1).is_none());
+        // A zero spin or back-up is done at once.
+        let limits = TwistLimits::default();
         let mut s = Spin::new(0.0).unwrap();
-        assert_eq!(
-            s.command(&Pose::default(), &TwistLimits::default()).1,
-            Status::Done
-        );
+        assert_eq!(s.command(&Pose::default(), &limits).1, Status::Done);
+        let mut b = BackUp::new(0.0, 0.1).unwrap();
+        assert_eq!(b.command(&Pose::default(), &limits).1, Status::Done);
+    }
+
+    /// A robot still rolling forward (or turning the other way) as the motion starts has not
+    /// backed up (or turned) by it: only motion in the asked direction counts.
+    #[test]
+    fn motion_the_wrong_way_counts_against_the_goal() {
+        let limits = TwistLimits::default();
+        let mut b = BackUp::new(0.3, 0.15).unwrap();
+        let from = Pose::default();
+        b.command(&from, &limits);
+        let rolled = Pose { x: 0.4, ..from };
+        let (cmd, status) = b.command(&rolled, &limits);
+        assert_eq!(status, Status::Running);
+        assert!(cmd.linear < 0.0 && (b.driven() + 0.4).abs() < 1e-9);
+        assert!((b.remaining() - 0.7).abs() < 1e-9);
+        let mut s = Spin::new(1.0).unwrap();
+        s.command(&from, &limits);
+        let (cmd, status) = s.command(&Pose { yaw: -0.2, ..from }, &limits);
+        assert_eq!(status, Status::Running);
+        assert!(cmd.angular > 0.0 && (s.turned() + 0.2).abs() < 1e-9);
+        // 1.2 rad still to go: the top rate, not the slowing down of the last 0.08 rad.
+        assert!((cmd.angular - limits.max_angular).abs() < 1e-9);
     }
 }

@@ -28,11 +28,16 @@ use patrol_msgs::nav2_msgs::{
 use planner_core::geometry::{Point2, Pose2};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
 use std::future::Future;
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// How often a behaviour checks on its motion and reports.
 const TICK: Duration = Duration::from_millis(100);
+
+/// How long a behaviour waits for the robot to come to rest before its motion starts: braking
+/// from the top speeds takes 1.2 s at the default limits.
+const SETTLE: Duration = Duration::from_secs(3);
 
 /// The spacing (s of motion) of the poses checked ahead, as nav2_behaviors' `cycle_frequency`
 /// (10 Hz) spaces them.
@@ -63,7 +68,7 @@ impl std::fmt::Display for Behavior {
 
 impl Behavior {
     /// The motion it makes (`None`: a wait), or why it cannot: a spin's angle must be finite,
-    /// a back-up's distance and speed finite and not zero.
+    /// a back-up's distance and speed finite and its speed not zero.
     pub fn motion(&self) -> Result<Option<Motion>, String> {
         let motion = match *self {
             Behavior::Wait(_) => return Ok(None),
@@ -73,7 +78,7 @@ impl Behavior {
             }
         };
         motion.map(Some).ok_or_else(|| {
-            format!("{self}: the angle, distance and speed must be finite and not zero")
+            format!("{self}: the angle, distance and speed must be finite, the speed not zero")
         })
     }
 }
@@ -127,6 +132,15 @@ where
     if let Some(why) = collision_ahead(s, &motion, pose) {
         return BehaviorEnd::Failed(BehaviorFailure::CollisionAhead, why);
     }
+    // From rest, as a behaviour starts: a robot still braking from the drive before would carry
+    // its motion into this one's.
+    let settling = Instant::now();
+    while s.moving.load(Ordering::SeqCst) && settling.elapsed() < SETTLE {
+        if let Some(end) = interrupted(s, mine, stop) {
+            return end;
+        }
+        tokio::time::sleep(TICK).await;
+    }
     if !s.start_motion(mine, motion) {
         return taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
     }
@@ -137,8 +151,12 @@ where
             break end;
         }
         let Some(moving) = s.motion_of(mine) else {
-            // Ended by a newer goal's plan or a deactivation in between.
-            break taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
+            // Ended by a newer goal's plan or a deactivation in between (or by one undone
+            // within the tick: no stop was asked for, so it failed).
+            break taken(s, mine).map_or_else(
+                || BehaviorEnd::Failed(BehaviorFailure::Unknown, format!("{behavior}: ended")),
+                BehaviorEnd::Taken,
+            );
         };
         progress(moving.motion.progress()).await;
         if moving.status == MotionStatus::Done {
@@ -394,14 +412,6 @@ async fn behave<G: BehaviorGoal>(
     };
     let behavior = goal.behavior();
     let moves = !matches!(behavior, Behavior::Wait(_));
-    if moves && !s.params.follow_plan {
-        let why = "follow_plan is false: this node drives nothing".to_string();
-        warn!("{}: {why}", G::NAME);
-        return (
-            GoalEndStatus::Aborted,
-            result(G::code(BehaviorFailure::Unknown), why),
-        );
-    }
     // Refused before the goal takes the robot: a bad goal does not stop a good one.
     if let Some(why) = goal.refusal().or_else(|| behavior.motion().err()) {
         warn!("{}: {why}", G::NAME);
@@ -415,7 +425,10 @@ async fn behave<G: BehaviorGoal>(
         async move { feedback.send(G::feedback(p)).await }
     };
     let end = if moves {
+        // The robot is this goal's: whatever drove it stops now, even if the motion cannot
+        // start (no pose, a collision ahead).
         let mine = s.take_robot();
+        s.stop_following(mine);
         run(&s, behavior, goal.allowance(), mine, &stop, progress).await
     } else {
         // A wait only waits, as nav2_behaviors' Wait: it does not take the robot from a drive.

@@ -92,8 +92,8 @@ const TICK: Duration = Duration::from_millis(100);
 /// spins, waits or backs up, and the drive plans again from where it is, through the poses it
 /// has not passed yet. A behaviour that fails (a spin or back-up that would hit something, or
 /// runs out of time) hands over to the next; when every one has failed, so has the drive, with
-/// its own failure. Callers check `follow_plan` first, before the goal takes the robot, and
-/// give at least one pose.
+/// its own failure. Served only with `follow_plan` (the follower loop drives); callers give at
+/// least one pose.
 pub async fn drive_to<P, Fut>(
     s: &Arc<Shared>,
     o: &Outputs,

@@ -104,11 +104,12 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
 
 /// The command for the behaviour's motion going on, if one is: a stop while odometry is stale
 /// (the behaviour then fails for want of a pose) or once the motion is done, which the motion
-/// records for its behaviour to see.
+/// records for its behaviour to see. The motion is measured in the odometry frame (`pose` only
+/// says whether odometry is fresh).
 fn motion_command(s: &Shared, pose: Option<planner_core::geometry::Pose2>) -> Option<Twist2> {
     let mut motion = s.motion.lock().expect("lock");
     let moving = motion.as_mut()?;
-    let Some(p) = pose else {
+    let Some(p) = pose.and(*s.odom_local.read().expect("lock")) else {
         return Some(Twist2::STOP);
     };
     let (cmd, status) = moving.motion.command(

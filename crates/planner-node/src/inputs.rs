@@ -246,6 +246,7 @@ pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
                 let in_map = s.localization.lock().expect("lock").odometry(stamp, p);
                 *s.start.write().expect("lock") = Some((in_map, Instant::now()));
                 *s.odom.write().expect("lock") = Some((in_map, Instant::now()));
+                *s.odom_local.write().expect("lock") = Some(p);
             }
             Err(f) => warn!("/odom ignored: {}", f.message),
         }

@@ -156,14 +156,6 @@ async fn navigate<G: NavigateGoal>(
             goal.behavior_tree()
         );
     }
-    // Checked before the goal takes the robot, so a plan for /goal_pose is not cancelled for it.
-    if !s.params.follow_plan {
-        return failed(
-            G::CODE_BASE,
-            "follow_plan is false: this node plans only, and leaves driving to another controller"
-                .into(),
-        );
-    }
     if goal.poses().is_empty() {
         return failed(NO_VIAPOINTS_GIVEN, "no poses given".into());
     }

@@ -73,6 +73,111 @@ fn setting(
         .unwrap_or_else(|| Err(format!("`{name}` cannot be set at run time")))
 }
 
+/// Nav2's action QoS, as rcl_action's defaults.
+fn action_qos() -> ActionServerQosPolicies {
+    ActionServerQosPolicies {
+        goal_service: ros_edge::reliable(10, Durability::Volatile),
+        result_service: ros_edge::reliable(10, Durability::Volatile),
+        cancel_service: ros_edge::reliable(10, Durability::Volatile),
+        feedback_publisher: ros_edge::reliable(10, Durability::Volatile),
+        // As rcl_action's status QoS: the latest status array, latched.
+        status_publisher: ros_edge::reliable(1, Durability::TransientLocal),
+    }
+}
+
+/// Serves the actions that drive the robot: bt_navigator's `navigate_to_pose` and
+/// `navigate_through_poses` (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs)
+/// and behavior_server's `spin`, `backup` and `wait` (behaviors.rs). Only with `follow_plan`: a
+/// node standing in for planner_server in a whole Nav2 stack (`follow_plan: false`, as the
+/// README sets it up) serves nothing that the stack's own servers serve, so none of their
+/// goals (a behaviour tree's Spin, a user's goToPose) can reach this node instead.
+fn serve_driving_actions(
+    node: &mut ros2_client::Node,
+    naming: &Naming,
+    tasks: &mut tokio::task::JoinSet<()>,
+    shared: &Arc<Shared>,
+    out: &Outputs,
+) -> Result<()> {
+    let navigate_to_pose = AsyncActionServer::new(node.create_action_server::<
+        NavigateToPoseGoal,
+        NavigateToPoseResult,
+        NavigateToPoseFeedback,
+    >(
+        ServiceMapping::Enhanced,
+        &naming.name("navigate_to_pose")?,
+        &ActionTypeName::new("nav2_msgs", "NavigateToPose"),
+        action_qos(),
+    )?);
+    let navigate_through_poses = AsyncActionServer::new(node.create_action_server::<
+        NavigateThroughPosesGoal,
+        NavigateThroughPosesResult,
+        NavigateThroughPosesFeedback,
+    >(
+        ServiceMapping::Enhanced,
+        &naming.name("navigate_through_poses")?,
+        &ActionTypeName::new("nav2_msgs", "NavigateThroughPoses"),
+        action_qos(),
+    )?);
+    let follow_waypoints = AsyncActionServer::new(node.create_action_server::<
+        FollowWaypointsGoal,
+        FollowWaypointsResult,
+        FollowWaypointsFeedback,
+    >(
+        ServiceMapping::Enhanced,
+        &naming.name("follow_waypoints")?,
+        &ActionTypeName::new("nav2_msgs", "FollowWaypoints"),
+        action_qos(),
+    )?);
+    // Nav2's behavior server's actions (see behaviors.rs), under its names.
+    let spin = AsyncActionServer::new(
+        node.create_action_server::<SpinGoal, BehaviorResult, SpinFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("spin")?,
+            &ActionTypeName::new("nav2_msgs", "Spin"),
+            action_qos(),
+        )?,
+    );
+    let backup = AsyncActionServer::new(
+        node.create_action_server::<BackUpGoal, BehaviorResult, BackUpFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("backup")?,
+            &ActionTypeName::new("nav2_msgs", "BackUp"),
+            action_qos(),
+        )?,
+    );
+    let wait = AsyncActionServer::new(
+        node.create_action_server::<WaitGoal, BehaviorResult, WaitFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("wait")?,
+            &ActionTypeName::new("nav2_msgs", "Wait"),
+            action_qos(),
+        )?,
+    );
+    tasks.spawn(crate::patrol::serve(
+        shared.clone(),
+        out.clone(),
+        follow_waypoints,
+    ));
+    tasks.spawn(crate::navigate::serve(
+        shared.clone(),
+        out.clone(),
+        navigate_to_pose,
+    ));
+    tasks.spawn(crate::navigate::serve(
+        shared.clone(),
+        out.clone(),
+        navigate_through_poses,
+    ));
+    tasks.spawn(crate::behaviors::serve_all(
+        shared.clone(),
+        out.clone(),
+        spin,
+        backup,
+        wait,
+    ));
+    Ok(())
+}
+
 /// Runs the node until Ctrl-C or SIGTERM.
 pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let mut signals = ros_edge::ShutdownSignals::new()?;
@@ -271,14 +376,6 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         ros_edge::reliable(REPLY_QUEUE, Durability::Volatile),
     )?;
     // Nav2's planner-server interface (see actions.rs): two actions and is_path_valid.
-    let action_qos = || ActionServerQosPolicies {
-        goal_service: ros_edge::reliable(10, Durability::Volatile),
-        result_service: ros_edge::reliable(10, Durability::Volatile),
-        cancel_service: ros_edge::reliable(10, Durability::Volatile),
-        feedback_publisher: ros_edge::reliable(10, Durability::Volatile),
-        // As rcl_action's status QoS: the latest status array, latched.
-        status_publisher: ros_edge::reliable(1, Durability::TransientLocal),
-    };
     let to_pose = AsyncActionServer::new(
         node.create_action_server::<ComputePathToPoseGoal, ComputePathResult, EmptyFeedback>(
             ServiceMapping::Enhanced,
@@ -292,61 +389,6 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             ServiceMapping::Enhanced,
             &naming.name("compute_path_through_poses")?,
             &ActionTypeName::new("nav2_msgs", "ComputePathThroughPoses"),
-            action_qos(),
-        )?,
-    );
-    let navigate_to_pose = AsyncActionServer::new(node.create_action_server::<
-        NavigateToPoseGoal,
-        NavigateToPoseResult,
-        NavigateToPoseFeedback,
-    >(
-        ServiceMapping::Enhanced,
-        &naming.name("navigate_to_pose")?,
-        &ActionTypeName::new("nav2_msgs", "NavigateToPose"),
-        action_qos(),
-    )?);
-    let navigate_through_poses = AsyncActionServer::new(node.create_action_server::<
-        NavigateThroughPosesGoal,
-        NavigateThroughPosesResult,
-        NavigateThroughPosesFeedback,
-    >(
-        ServiceMapping::Enhanced,
-        &naming.name("navigate_through_poses")?,
-        &ActionTypeName::new("nav2_msgs", "NavigateThroughPoses"),
-        action_qos(),
-    )?);
-    let follow_waypoints = AsyncActionServer::new(node.create_action_server::<
-        FollowWaypointsGoal,
-        FollowWaypointsResult,
-        FollowWaypointsFeedback,
-    >(
-        ServiceMapping::Enhanced,
-        &naming.name("follow_waypoints")?,
-        &ActionTypeName::new("nav2_msgs", "FollowWaypoints"),
-        action_qos(),
-    )?);
-    // Nav2's behavior server's actions (see behaviors.rs), under its names.
-    let spin = AsyncActionServer::new(
-        node.create_action_server::<SpinGoal, BehaviorResult, SpinFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("spin")?,
-            &ActionTypeName::new("nav2_msgs", "Spin"),
-            action_qos(),
-        )?,
-    );
-    let backup = AsyncActionServer::new(
-        node.create_action_server::<BackUpGoal, BehaviorResult, BackUpFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("backup")?,
-            &ActionTypeName::new("nav2_msgs", "BackUp"),
-            action_qos(),
-        )?,
-    );
-    let wait = AsyncActionServer::new(
-        node.create_action_server::<WaitGoal, BehaviorResult, WaitFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("wait")?,
-            &ActionTypeName::new("nav2_msgs", "Wait"),
             action_qos(),
         )?,
     );
@@ -554,28 +596,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     tasks.spawn(actions::serve(shared.clone(), out.clone(), to_pose));
     tasks.spawn(actions::serve(shared.clone(), out.clone(), through_poses));
     tasks.spawn(actions::serve_is_path_valid(shared.clone(), is_path_valid));
-    tasks.spawn(crate::patrol::serve(
-        shared.clone(),
-        out.clone(),
-        follow_waypoints,
-    ));
-    tasks.spawn(crate::navigate::serve(
-        shared.clone(),
-        out.clone(),
-        navigate_to_pose,
-    ));
-    tasks.spawn(crate::navigate::serve(
-        shared.clone(),
-        out.clone(),
-        navigate_through_poses,
-    ));
-    tasks.spawn(crate::behaviors::serve_all(
-        shared.clone(),
-        out.clone(),
-        spin,
-        backup,
-        wait,
-    ));
+    if params.follow_plan {
+        serve_driving_actions(&mut node, &naming, &mut tasks, &shared, &out)?;
+    }
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),
         out.clone(),

@@ -144,13 +144,6 @@ async fn patrol(
         );
         return (GoalEndStatus::Aborted, result);
     }
-    if !s.params.follow_plan {
-        result.error_code = 600;
-        result.error_msg =
-            "follow_plan is false: this node plans only, and leaves driving to another controller"
-                .into();
-        return (GoalEndStatus::Aborted, result);
-    }
     // The patrol has the robot from now on, between its legs too, until a newer goal takes it.
     let mine = s.take_robot();
     // An older goal's path is not driven on while the patrol orders its waypoints (nor after it,

@@ -128,6 +128,10 @@ pub struct Shared {
     pub localization: Mutex<Localization>,
     /// The latest `/odom` pose (map frame) and when it arrived: the follower's feedback.
     pub odom: RwLock<Option<(Pose2, Instant)>>,
+    /// The same pose in the odometry frame, as it arrived (Nav2's `local_frame`): what a
+    /// behaviour's motion measures its turning and driving by, so that a localisation update
+    /// (AMCL's correction during a recovery spin) is not taken for motion.
+    pub odom_local: RwLock<Option<Pose2>>,
     /// The plan being followed, if any.
     pub follower: Mutex<Option<Follower>>,
     /// A behaviour's motion (a spin, a back-up: behaviors.rs), its goal's number and whether it
@@ -203,6 +207,7 @@ impl Shared {
             start: RwLock::new(None),
             goals: AtomicU64::new(0),
             odom: RwLock::new(None),
+            odom_local: RwLock::new(None),
             follower: Mutex::new(None),
             motion: Mutex::new(None),
             followed: Mutex::new(None),
@@ -420,8 +425,8 @@ impl Shared {
         (self.followed.lock().expect("lock").as_ref()).is_some_and(|f| f.owner == owner)
     }
 
-    /// Stops the robot (the follower loop brakes it to a stop) if `owner` still has it: a goal
-    /// that ends does not stop a newer one's drive.
+    /// Stops the robot (the follower loop brakes it to a stop: no plan, no behaviour's motion)
+    /// if `owner` still has it: a goal that ends does not stop a newer one's drive.
     pub fn stop_following(&self, owner: u64) -> bool {
         self.install_follower(owner, None, Install::NewGoal)
     }
@@ -479,8 +484,8 @@ impl Shared {
 
     /// Under the follower's lock, so a newer goal's plan, installed meanwhile, is never
     /// overwritten by an older one's (the lock order everywhere: follower, then followed, then
-    /// motion; the lifecycle's is held alone: the lifecycle services take the follower's lock
-    /// only after releasing theirs).
+    /// motion or lifecycle, each taken last and let go at once; the lifecycle services take
+    /// the follower's lock only after releasing theirs).
     /// Only an active node is handed a path: a plan that finishes after a deactivation does not
     /// start the robot. Stopping is always allowed.
     fn install_follower(&self, owner: u64, next: Option<Handover>, how: Install) -> bool {
@@ -522,6 +527,7 @@ impl Shared {
         let Some((f, plan)) = next else {
             *follower = None;
             *followed = None;
+            *self.motion.lock().expect("lock") = None;
             // Told before the follower's lock is let go: the drive that sees no follower finds
             // the reason waiting.
             if let Install::Replan(_, Some(why)) = how {
@@ -906,8 +912,13 @@ mod tests {
         assert!(s.start_motion(new, spin()));
         s.stop_motion(new);
         assert!(s.motion.lock().unwrap().is_none());
+        // A goal that takes the robot stops whatever drove it, a motion too.
+        assert!(s.start_motion(new, spin()));
+        let newest = s.take_robot();
+        assert!(s.stop_following(newest));
+        assert!(s.motion.lock().unwrap().is_none());
         *s.lifecycle.write().unwrap() = crate::lifecycle::State::Inactive;
-        assert!(!s.start_motion(new, spin()));
+        assert!(!s.start_motion(newest, spin()));
     }
 
     #[test]
