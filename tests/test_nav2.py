@@ -153,7 +153,8 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         # (Listed once the planner actions are: the node creates them all before it spins.)
         served = {name for name, _ in get_action_names_and_types(ros.node)}
         assert {"/compute_path_to_pose", "/compute_path_through_poses"} <= served, served
-        driving = {"/navigate_to_pose", "/navigate_through_poses", "/follow_waypoints", "/spin", "/backup", "/wait"}
+        driving = {"/navigate_to_pose", "/navigate_through_poses", "/follow_waypoints", "/spin", "/backup",
+                   "/drive_on_heading", "/wait"}
         assert not served & driving, served
 
         # Two goals that end before their clients ask for the results, asked for in the other

@@ -14,9 +14,10 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - Blocked until the first recovery, then free: the goal succeeds, with one recovery reported.
 - A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it.
 - A /goal_pose whose robot makes no progress is given up: the robot is told to stop.
-- The spin, backup and wait actions (nav2_simple_commander's spin() and backup()): the robot
-  turns through the angle, backs up the distance, a back-up towards the pillar stops short of it
-  with COLLISION_AHEAD (714), a back-up sideways is INVALID_INPUT (713), a wait waits."""
+- The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
+  and driveOnHeading()): the robot turns through the angle, backs up the distance, drives on,
+  a back-up towards the pillar stops short of it with COLLISION_AHEAD (714), a back-up sideways
+  is INVALID_INPUT (713) and so is a drive whose speed has the other sign (724), a wait waits."""
 import math
 import time
 
@@ -29,7 +30,7 @@ from nav_msgs.msg import Odometry
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionClient
 
-from nav2_msgs.action import BackUp, NavigateToPose, Spin, Wait
+from nav2_msgs.action import BackUp, DriveOnHeading, NavigateToPose, Spin, Wait
 
 from conftest import Ros, call_service, domain_id, stamped, start_node, stop_binary
 from test_node import grid_msg
@@ -185,6 +186,7 @@ def test_the_behavior_servers_actions(rig):
     robot.blocked = False
     spin = ActionClient(ros.node, Spin, "spin")
     backup = ActionClient(ros.node, BackUp, "backup")
+    drive = ActionClient(ros.node, DriveOnHeading, "drive_on_heading")
     wait = ActionClient(ros.node, Wait, "wait")
     # Probes the node refuses at once without touching the robot.
     ros.wait_action_answers(spin, Spin.Goal(target_yaw=float("nan")), "the spin action")
@@ -192,6 +194,11 @@ def test_the_behavior_servers_actions(rig):
     sideways.target.y = 0.3
     ros.wait_action_answers(backup, sideways, "the backup action")
     ros.wait_action_answers(wait, Wait.Goal(), "the wait action")
+    backwards = DriveOnHeading.Goal(speed=0.1)
+    backwards.target.x = -0.3
+    ros.wait_action_answers(drive, backwards, "the drive_on_heading action")
+    r, _ = behave(ros, drive, backwards, 10)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 724), r.result.error_msg
 
     r, _ = behave(ros, backup, sideways, 10)
     assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 713), r.result.error_msg
@@ -216,6 +223,14 @@ def test_the_behavior_servers_actions(rig):
     assert (r.status, r.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, 0), r.result.error_msg
     assert abs(robot.y - (y0 - 0.3)) < 0.05 and abs(robot.x - x0) < 0.02, (robot.x, robot.y)
     assert feedback and abs(feedback[-1].distance_traveled - 0.3) < 0.05
+
+    # And on again, forwards 0.3 m at 0.2 m/s: back where it began the back-up.
+    on = DriveOnHeading.Goal(speed=0.2)
+    on.target.x = 0.3
+    on.time_allowance.sec = 15
+    r, feedback = behave(ros, drive, on, 30)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, 0), r.result.error_msg
+    assert abs(robot.y - y0) < 0.05 and abs(robot.x - x0) < 0.02, (robot.x, robot.y)
 
     # Backing up 1.5 m towards the pillar (x 2.5-3.0 m, y 2-3 m) from 0.9 m east of it, facing
     # east: the robot backs up, then stops short of touching it (its radius 0.25 m: the check

@@ -453,10 +453,20 @@ pub mod nav2_msgs {
         /// 0: no limit.
         pub time_allowance: Duration,
     }
-    /// nav2_msgs/action/BackUp feedback
+    /// nav2_msgs/action/BackUp feedback, and DriveOnHeading's: the same field
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct BackUpFeedback {
         pub distance_traveled: f32,
+    }
+    /// nav2_msgs/action/DriveOnHeading goal (Jazzy; BackUp's fields): only `target.x` may be
+    /// non-zero, with the speed's sign (codes UNKNOWN 720, TIMEOUT 721, TF_ERROR 722,
+    /// COLLISION_AHEAD 723, INVALID_INPUT 724)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct DriveOnHeadingGoal {
+        pub target: super::geometry_msgs::Point,
+        pub speed: f32,
+        /// 0: no limit.
+        pub time_allowance: Duration,
     }
     /// nav2_msgs/action/Wait goal
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -474,6 +484,7 @@ pub mod nav2_msgs {
         SpinFeedback,
         BackUpGoal,
         BackUpFeedback,
+        DriveOnHeadingGoal,
         WaitGoal,
         WaitFeedback,
         NavigateToPoseGoal,

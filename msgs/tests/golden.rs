@@ -570,6 +570,19 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::BACKUP_FEEDBACK,
     );
+    check(
+        "DriveOnHeading goal",
+        DriveOnHeadingGoal {
+            target: Point {
+                x: -0.5,
+                y: 0.0,
+                z: 0.0,
+            },
+            speed: -0.2,
+            time_allowance: d(12, 90),
+        },
+        g::DRIVE_ON_HEADING_GOAL,
+    );
     check("Wait goal", WaitGoal { time: d(5, 60) }, g::WAIT_GOAL);
     check(
         "Wait result",

@@ -14,8 +14,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose, FollowWaypoints,
-                              NavigateThroughPoses, NavigateToPose, Spin, Wait)
+from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose, DriveOnHeading,
+                              FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import IsPathValid
 
@@ -141,6 +141,9 @@ def messages():
     r.total_elapsed_time.sec, r.total_elapsed_time.nanosec = 2, 50
     out["BACKUP_RESULT"] = r
     out["BACKUP_FEEDBACK"] = BackUp.Feedback(distance_traveled=0.25)
+    g = DriveOnHeading.Goal(target=Point(x=-0.5, y=0.0, z=0.0), speed=-0.2)
+    g.time_allowance.sec, g.time_allowance.nanosec = 12, 90
+    out["DRIVE_ON_HEADING_GOAL"] = g
     g = Wait.Goal()
     g.time.sec, g.time.nanosec = 5, 60
     out["WAIT_GOAL"] = g

@@ -1,8 +1,9 @@
 //! The motions of Nav2's behavior server (nav2_behaviors) a recovery makes when following a path
-//! got nowhere: `Spin` turns on the spot through a given angle, `BackUp` drives straight back a
-//! given distance. Each is a small state machine like the path follower: fed the robot's pose
-//! each control cycle, it says what to command and whether it is done, and it measures its own
-//! progress (the angle turned, the distance driven) as Nav2's feedback reports it.
+//! got nowhere: `Spin` turns on the spot through a given angle, `DriveOnHeading` drives straight
+//! forwards or back (a back-up) a given distance. Each is a small state machine like the path
+//! follower: fed the robot's pose each control cycle, it says what to command and whether it is
+//! done, and it measures its own progress (the angle turned, the distance driven) as Nav2's
+//! feedback reports it.
 //!
 //! As in nav2_behaviors, a motion only commands; whoever runs it watches its time allowance and
 //! checks the poses it is about to pass ([`Motion::ahead`]) against a costmap: the chassis crate
@@ -16,8 +17,9 @@ use std::f64::consts::PI;
 /// `min_rotational_vel` (0.4) is this chassis's top rate, so it would leave no slowing down.
 pub const MIN_SPIN_RATE: f64 = 0.05;
 
-/// The slowest speed (m/s) a back-up commands near its end, for the same reason.
-pub const MIN_BACKUP_SPEED: f64 = 0.02;
+/// The slowest speed (m/s) a drive on heading (a back-up) commands near its end, for the same
+/// reason.
+pub const MIN_DRIVE_SPEED: f64 = 0.02;
 
 /// Whether a motion is still going.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,40 +78,55 @@ impl Spin {
     }
 }
 
-/// A straight drive backwards through `distance` m at up to `speed` m/s, as nav2_behaviors'
-/// BackUp (its DriveOnHeading backwards): the distance driven is measured backwards along the
-/// heading it began with (a robot still rolling forward has driven less than nothing), and the
-/// speed falls as `sqrt(2 * max_linear_accel * remaining)` near the end.
+/// A straight drive along the heading through `distance` m (backwards if negative) at up to
+/// `speed` m/s, as nav2_behaviors' DriveOnHeading and BackUp (its backwards use): the distance
+/// driven is measured along the heading it began with, in its direction (a robot still rolling
+/// the other way has driven less than nothing), and the speed falls as
+/// `sqrt(2 * max_linear_accel * remaining)` near the end.
 #[derive(Clone, Debug)]
-pub struct BackUp {
+pub struct DriveOnHeading {
+    /// How far, as a magnitude.
     distance: f64,
+    /// 1 forwards, -1 backwards.
+    direction: f64,
+    /// How fast, as a magnitude.
     speed: f64,
     from: Option<Pose>,
     driven: f64,
 }
 
-impl BackUp {
-    /// A back-up through `distance` m at `speed` m/s (both taken as magnitudes, as Nav2's BackUp
-    /// takes them; a distance of 0 is done at once, as there); `None` unless both are finite
-    /// and the speed not zero (it would never get there).
+impl DriveOnHeading {
+    /// A drive through `distance` m (backwards if negative) at `speed` m/s (its magnitude; a
+    /// distance of 0 is done at once, as Nav2's); `None` unless both are finite and the speed
+    /// not zero (it would never get there).
     pub fn new(distance: f64, speed: f64) -> Option<Self> {
         (distance.is_finite() && speed.is_finite() && speed != 0.0).then_some(Self {
             distance: distance.abs(),
+            direction: if distance < 0.0 { -1.0 } else { 1.0 },
             speed: speed.abs(),
             from: None,
             driven: 0.0,
         })
     }
 
-    /// The distance driven so far (m), BackUp's `distance_traveled`.
+    /// A back-up through `distance` m at `speed` m/s, both taken as magnitudes, as Nav2's
+    /// BackUp takes them.
+    pub fn back_up(distance: f64, speed: f64) -> Option<Self> {
+        Self::new(-distance.abs(), speed)
+    }
+
+    /// The distance driven so far (m) in the drive's direction, the `distance_traveled` of
+    /// Nav2's feedback.
     pub fn driven(&self) -> f64 {
         self.driven
     }
 
-    /// Takes the pose and gives the command: backwards, or a stop once it has driven far enough.
+    /// Takes the pose and gives the command: along the heading, or a stop once it has driven
+    /// far enough.
     pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
         let from = *self.from.get_or_insert(*pose);
-        self.driven = -((pose.x - from.x) * from.yaw.cos() + (pose.y - from.y) * from.yaw.sin());
+        let along = (pose.x - from.x) * from.yaw.cos() + (pose.y - from.y) * from.yaw.sin();
+        self.driven = self.direction * along;
         let remaining = self.distance - self.driven;
         if remaining <= 0.0 {
             return (Twist2::STOP, Status::Done);
@@ -118,8 +135,8 @@ impl BackUp {
             .sqrt()
             .min(self.speed)
             .min(limits.max_linear)
-            .max(MIN_BACKUP_SPEED.min(self.speed).min(limits.max_linear));
-        (Twist2::new(-speed, 0.0), Status::Running)
+            .max(MIN_DRIVE_SPEED.min(self.speed).min(limits.max_linear));
+        (Twist2::new(self.direction * speed, 0.0), Status::Running)
     }
 
     /// How far (m) it still has to go.
@@ -132,7 +149,7 @@ impl BackUp {
 #[derive(Clone, Debug)]
 pub enum Motion {
     Spin(Spin),
-    BackUp(BackUp),
+    Drive(DriveOnHeading),
 }
 
 impl Motion {
@@ -140,7 +157,7 @@ impl Motion {
     pub fn command(&mut self, pose: &Pose, limits: &TwistLimits) -> (Twist2, Status) {
         match self {
             Motion::Spin(s) => s.command(pose, limits),
-            Motion::BackUp(b) => b.command(pose, limits),
+            Motion::Drive(d) => d.command(pose, limits),
         }
     }
 
@@ -148,7 +165,7 @@ impl Motion {
     pub fn progress(&self) -> f64 {
         match self {
             Motion::Spin(s) => s.turned(),
-            Motion::BackUp(b) => b.driven(),
+            Motion::Drive(d) => d.driven(),
         }
     }
 
@@ -156,21 +173,21 @@ impl Motion {
     /// spacing (s), not beyond the motion's end, as nav2_behaviors simulates ahead before each
     /// command (`simulate_ahead_time`): the caller checks each against its costmap. A spin stays
     /// where it is and only turns, so for a round robot its one pose is the one to check; a
-    /// back-up runs back along the heading, at most its remaining distance.
+    /// drive runs along the heading (back, for a back-up), at most its remaining distance.
     pub fn ahead(&self, pose: &Pose, limits: &TwistLimits, horizon: f64, step: f64) -> Vec<Pose> {
         match self {
             Motion::Spin(_) => vec![*pose],
-            Motion::BackUp(b) => {
-                let speed = b.speed.min(limits.max_linear);
-                let reach = (speed * horizon.max(0.0)).min(b.remaining());
+            Motion::Drive(drive) => {
+                let speed = drive.speed.min(limits.max_linear);
+                let reach = (speed * horizon.max(0.0)).min(drive.remaining());
                 let ds = (speed * step).max(1e-3);
                 let n = (reach / ds).ceil() as usize;
                 (0..=n)
                     .map(|i| {
-                        let d = (i as f64 * ds).min(reach);
+                        let d = drive.direction * (i as f64 * ds).min(reach);
                         Pose {
-                            x: pose.x - d * pose.yaw.cos(),
-                            y: pose.y - d * pose.yaw.sin(),
+                            x: pose.x + d * pose.yaw.cos(),
+                            y: pose.y + d * pose.yaw.sin(),
                             yaw: pose.yaw,
                         }
                     })
@@ -257,7 +274,7 @@ mod tests {
             y: 1.0,
             yaw: PI / 2.0,
         };
-        let mut b = Motion::BackUp(BackUp::new(0.3, -0.15).unwrap());
+        let mut b = Motion::Drive(DriveOnHeading::back_up(0.3, -0.15).unwrap());
         let (end, sent, done) = run(b.clone(), from, 400);
         assert!(done);
         assert!(
@@ -291,14 +308,39 @@ mod tests {
     }
 
     #[test]
+    fn a_drive_on_heading_goes_forwards_its_distance() {
+        let from = Pose {
+            x: 1.0,
+            y: 1.0,
+            yaw: PI / 4.0,
+        };
+        let drive = Motion::Drive(DriveOnHeading::new(0.5, 0.2).unwrap());
+        let ahead = drive.ahead(&from, &TwistLimits::default(), 2.0, 0.1);
+        let last = *ahead.last().unwrap();
+        assert!(
+            (last.x - 1.0 - 0.4 * (PI / 4.0).cos()).abs() < 1e-9,
+            "0.2 m/s x 2 s: {last:?}"
+        );
+        let (end, sent, done) = run(drive, from, 400);
+        assert!(done && sent.iter().all(|c| c.linear >= 0.0 && c.linear <= 0.2));
+        let d = (end.x - 1.0).hypot(end.y - 1.0);
+        assert!(
+            (d - 0.5).abs() < 0.02 && end.x > 1.0 && end.y > 1.0,
+            "{end:?}"
+        );
+    }
+
+    #[test]
     fn motions_that_go_nowhere_are_refused() {
         assert!(Spin::new(f64::NAN).is_none() && Spin::new(f64::INFINITY).is_none());
-        assert!(BackUp::new(0.3, 0.0).is_none() && BackUp::new(f64::NAN, 0.1).is_none());
+        assert!(
+            DriveOnHeading::new(0.3, 0.0).is_none() && DriveOnHeading::new(f64::NAN, 0.1).is_none()
+        );
         // A zero spin or back-up is done at once.
         let limits = TwistLimits::default();
         let mut s = Spin::new(0.0).unwrap();
         assert_eq!(s.command(&Pose::default(), &limits).1, Status::Done);
-        let mut b = BackUp::new(0.0, 0.1).unwrap();
+        let mut b = DriveOnHeading::back_up(0.0, 0.1).unwrap();
         assert_eq!(b.command(&Pose::default(), &limits).1, Status::Done);
     }
 
@@ -307,7 +349,7 @@ mod tests {
     #[test]
     fn motion_the_wrong_way_counts_against_the_goal() {
         let limits = TwistLimits::default();
-        let mut b = BackUp::new(0.3, 0.15).unwrap();
+        let mut b = DriveOnHeading::back_up(0.3, 0.15).unwrap();
         let from = Pose::default();
         b.command(&from, &limits);
         let rolled = Pose { x: 0.4, ..from };

@@ -2,9 +2,9 @@
 //! patrol car's 0.6 m/s and 0.4 rad/s, with acceleration limits, `limits`), differential-drive
 //! wheel kinematics (`kinematics`), a command watchdog (`watchdog`), the planar pose in the odom
 //! frame (`pose`), a simulated unicycle chassis (`sim`), a regulated pure-pursuit path follower
-//! (`follower`) with its progress checker (`progress`), the spin and
-//! back-up of Nav2's recoveries (`behavior`), the line protocol to a motor controller
-//! (`protocol`) and encoder odometry (`odometry`).
+//! (`follower`) with its progress checker (`progress`), the spin, drive on heading and back-up of
+//! Nav2's behaviours (`behavior`), the line protocol to a motor controller (`protocol`) and
+//! encoder odometry (`odometry`).
 //!
 //! Pure: no ROS, no tokio, no clock and no I/O. Callers pass the time step and the bytes, so
 //! everything here is tested and property-tested alone. The `chassis_bridge` binary (crate

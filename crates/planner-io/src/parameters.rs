@@ -58,7 +58,7 @@ pub struct NodeParams {
     /// What an action's drive does when it fails in a way a recovery may help, as bt_navigator's
     /// recovery tree does.
     pub recovery: RecoveryParams,
-    /// The spin, back-up and wait behaviours (as Nav2's behavior server).
+    /// The spin, back-up, drive-on-heading and wait behaviours (as Nav2's behavior server).
     pub behavior_server: BehaviorServerParams,
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
@@ -171,8 +171,8 @@ impl Default for RecoveryParams {
     }
 }
 
-/// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup` and `wait`
-/// actions and makes the recoveries' motions.
+/// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup`,
+/// `drive_on_heading` and `wait` actions and makes the recoveries' motions.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BehaviorServerParams {

@@ -1,7 +1,8 @@
 //! Nav2's behavior server (nav2_behaviors): `spin` turns the robot on the spot, `backup` drives
-//! it straight back, `wait` keeps it standing. Served as Nav2's actions (nav2_msgs, Jazzy), as
-//! nav2_simple_commander's `spin()` and `backup()` and the behaviour trees' Spin, BackUp and
-//! Wait nodes send them, and made by a drive's recoveries (drive.rs) in turn, as Nav2's default
+//! it straight back, `drive_on_heading` straight on (or back), `wait` keeps it standing. Served
+//! as Nav2's actions (nav2_msgs, Jazzy), as nav2_simple_commander's `spin()`, `backup()` and
+//! `driveOnHeading()` and the behaviour trees' Spin, BackUp, DriveOnHeading and Wait nodes send
+//! them, and made by a drive's recoveries (drive.rs) in turn, as Nav2's default
 //! trees' round robin makes them.
 //!
 //! A motion is made by the node's control loop (follow.rs, from the chassis crate's
@@ -19,11 +20,12 @@ use crate::convert::duration_msg;
 use crate::drive::{taken, DriveEnd};
 use crate::outputs::Outputs;
 use crate::state::Shared;
-use chassis::behavior::{BackUp, Motion, Spin, Status as MotionStatus};
+use chassis::behavior::{DriveOnHeading, Motion, Spin, Status as MotionStatus};
 use log::{info, warn};
 use patrol_msgs::builtin_interfaces::Duration as DurationMsg;
 use patrol_msgs::nav2_msgs::{
-    BackUpFeedback, BackUpGoal, BehaviorResult, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
+    BackUpFeedback, BackUpGoal, BehaviorResult, DriveOnHeadingGoal, SpinFeedback, SpinGoal,
+    WaitFeedback, WaitGoal,
 };
 use planner_core::geometry::{Point2, Pose2};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
@@ -48,8 +50,9 @@ const AHEAD_STEP_S: f64 = 0.1;
 pub enum Behavior {
     /// Turn on the spot through this angle (rad, counter-clockwise if positive).
     Spin(f64),
-    /// Drive straight back this far (m) at this speed (m/s).
-    BackUp { distance: f64, speed: f64 },
+    /// Drive straight along the heading this far (m; backwards if negative: a back-up) at this
+    /// speed (m/s).
+    Drive { distance: f64, speed: f64 },
     /// Stand still this long.
     Wait(Duration),
 }
@@ -58,8 +61,11 @@ impl std::fmt::Display for Behavior {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Behavior::Spin(a) => write!(f, "spin {a:.2} rad"),
-            Behavior::BackUp { distance, speed } => {
-                write!(f, "back up {distance:.2} m at {speed:.2} m/s")
+            Behavior::Drive { distance, speed } if *distance < 0.0 => {
+                write!(f, "back up {:.2} m at {speed:.2} m/s", -distance)
+            }
+            Behavior::Drive { distance, speed } => {
+                write!(f, "drive {distance:.2} m on heading at {speed:.2} m/s")
             }
             Behavior::Wait(d) => write!(f, "wait {:.1} s", d.as_secs_f64()),
         }
@@ -73,8 +79,8 @@ impl Behavior {
         let motion = match *self {
             Behavior::Wait(_) => return Ok(None),
             Behavior::Spin(angle) => Spin::new(angle).map(Motion::Spin),
-            Behavior::BackUp { distance, speed } => {
-                BackUp::new(distance, speed).map(Motion::BackUp)
+            Behavior::Drive { distance, speed } => {
+                DriveOnHeading::new(distance, speed).map(Motion::Drive)
             }
         };
         motion.map(Some).ok_or_else(|| {
@@ -320,8 +326,8 @@ impl BehaviorGoal for BackUpGoal {
     const CODE_BASE: u16 = 710;
     /// Backwards whatever the signs, as nav2_behaviors' BackUp takes both magnitudes.
     fn behavior(&self) -> Behavior {
-        Behavior::BackUp {
-            distance: self.target.x.abs(),
+        Behavior::Drive {
+            distance: -self.target.x.abs(),
             speed: f64::from(self.speed).abs(),
         }
     }
@@ -347,6 +353,46 @@ impl BehaviorGoal for BackUpGoal {
                 BehaviorFailure::TfError => 2,
                 BehaviorFailure::InvalidInput => 3,
                 BehaviorFailure::CollisionAhead => 4,
+            }
+    }
+}
+
+impl BehaviorGoal for DriveOnHeadingGoal {
+    type Feedback = BackUpFeedback;
+    const NAME: &'static str = "drive_on_heading";
+    const CODE_BASE: u16 = 720;
+    fn behavior(&self) -> Behavior {
+        Behavior::Drive {
+            distance: self.target.x,
+            speed: f64::from(self.speed).abs(),
+        }
+    }
+    /// As nav2_behaviors' DriveOnHeading: only along the robot's heading, and the distance and
+    /// the speed of one sign (a zero distance has none: refused, as there).
+    fn refusal(&self) -> Option<String> {
+        if self.target.y != 0.0 || self.target.z != 0.0 {
+            return Some("driving in y and z is not supported: only target.x is driven".into());
+        }
+        ((self.target.x > 0.0) != (self.speed > 0.0))
+            .then(|| "target.x and speed must have the same sign".into())
+    }
+    fn allowance(&self) -> Option<Duration> {
+        allowance(&self.time_allowance)
+    }
+    fn feedback(progress: f64) -> BackUpFeedback {
+        BackUpFeedback {
+            distance_traveled: progress as f32,
+        }
+    }
+    /// UNKNOWN 720, TIMEOUT 721, TF_ERROR 722, COLLISION_AHEAD 723, INVALID_INPUT 724.
+    fn code(f: BehaviorFailure) -> u16 {
+        Self::CODE_BASE
+            + match f {
+                BehaviorFailure::Unknown => 0,
+                BehaviorFailure::Timeout => 1,
+                BehaviorFailure::TfError => 2,
+                BehaviorFailure::CollisionAhead => 3,
+                BehaviorFailure::InvalidInput => 4,
             }
     }
 }
@@ -381,18 +427,21 @@ async fn serve<G: BehaviorGoal>(
     crate::action_server::serve(s, o, G::NAME, server, behave::<G>).await
 }
 
-/// Serves `spin`, `backup` and `wait` side by side.
-pub async fn serve_all(
-    s: Arc<Shared>,
-    o: Outputs,
-    spin: AsyncActionServer<SpinGoal, BehaviorResult, SpinFeedback>,
-    backup: AsyncActionServer<BackUpGoal, BehaviorResult, BackUpFeedback>,
-    wait: AsyncActionServer<WaitGoal, BehaviorResult, WaitFeedback>,
-) {
+/// The behaviour actions' servers.
+pub struct BehaviorServers {
+    pub spin: AsyncActionServer<SpinGoal, BehaviorResult, SpinFeedback>,
+    pub backup: AsyncActionServer<BackUpGoal, BehaviorResult, BackUpFeedback>,
+    pub drive_on_heading: AsyncActionServer<DriveOnHeadingGoal, BehaviorResult, BackUpFeedback>,
+    pub wait: AsyncActionServer<WaitGoal, BehaviorResult, WaitFeedback>,
+}
+
+/// Serves `spin`, `backup`, `drive_on_heading` and `wait` side by side.
+pub async fn serve_all(s: Arc<Shared>, o: Outputs, servers: BehaviorServers) {
     tokio::join!(
-        serve(s.clone(), o.clone(), spin),
-        serve(s.clone(), o.clone(), backup),
-        serve(s, o, wait),
+        serve(s.clone(), o.clone(), servers.spin),
+        serve(s.clone(), o.clone(), servers.backup),
+        serve(s.clone(), o.clone(), servers.drive_on_heading),
+        serve(s, o, servers.wait),
     );
 }
 
@@ -478,7 +527,33 @@ mod tests {
             .map(BackUpGoal::code)
             .into();
         assert_eq!(back, [710, 711, 712, 713, 714]);
+        let drive: Vec<u16> = [Unknown, Timeout, TfError, CollisionAhead, InvalidInput]
+            .map(DriveOnHeadingGoal::code)
+            .into();
+        assert_eq!(drive, [720, 721, 722, 723, 724]);
         assert_eq!(WaitGoal::code(Timeout), 0);
+    }
+
+    /// As nav2_behaviors' DriveOnHeading: forwards or back as target.x says, with a speed of
+    /// the same sign, only along the heading.
+    #[test]
+    fn a_drive_on_heading_goal_keeps_its_signs() {
+        let mut g = DriveOnHeadingGoal {
+            speed: -0.2,
+            ..Default::default()
+        };
+        g.target.x = -0.5;
+        assert_eq!(g.refusal(), None);
+        assert!(matches!(g.behavior(), Behavior::Drive { distance, .. } if distance == -0.5));
+        g.speed = 0.2;
+        assert!(g.refusal().unwrap().contains("same sign"));
+        g.target.x = 0.5;
+        assert_eq!(g.refusal(), None);
+        g.target.x = 0.0;
+        assert!(g.refusal().is_some(), "no distance has no sign");
+        g.target.x = 0.5;
+        g.target.z = 1.0;
+        assert!(g.refusal().is_some());
     }
 
     #[test]
@@ -492,8 +567,8 @@ mod tests {
         g.target.x = -0.4;
         g.speed = -0.2;
         assert_eq!(g.behavior(), b);
-        assert!(matches!(b, Behavior::BackUp { distance, speed }
-            if (distance - 0.4).abs() < 1e-9 && (speed - 0.2).abs() < 1e-6));
+        assert!(matches!(b, Behavior::Drive { distance, speed }
+            if (distance + 0.4).abs() < 1e-9 && (speed - 0.2).abs() < 1e-6));
         assert_eq!(g.refusal(), None);
         g.target.y = 0.1;
         assert!(g.refusal().is_some());

@@ -187,8 +187,8 @@ impl RoundRobin {
             .map(|b| match b {
                 RecoveryBehavior::Spin => Behavior::Spin(r.spin_dist),
                 RecoveryBehavior::Wait => Behavior::Wait(Duration::from_secs_f64(r.wait_duration)),
-                RecoveryBehavior::Backup => Behavior::BackUp {
-                    distance: r.backup_dist,
+                RecoveryBehavior::Backup => Behavior::Drive {
+                    distance: -r.backup_dist,
                     speed: r.backup_speed,
                 },
             })

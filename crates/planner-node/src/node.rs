@@ -43,10 +43,11 @@ use patrol_msgs::lifecycle_msgs::{
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     BackUpFeedback, BackUpGoal, BehaviorResult, ComputePathResult, ComputePathThroughPosesGoal,
-    ComputePathToPoseGoal, EmptyFeedback, FollowWaypointsFeedback, FollowWaypointsGoal,
-    FollowWaypointsResult, IsPathValidRequest, IsPathValidResponse, NavigateThroughPosesFeedback,
-    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
-    NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
+    ComputePathToPoseGoal, DriveOnHeadingGoal, EmptyFeedback, FollowWaypointsFeedback,
+    FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest, IsPathValidResponse,
+    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
+    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal,
+    WaitFeedback, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -87,7 +88,7 @@ fn action_qos() -> ActionServerQosPolicies {
 
 /// Serves the actions that drive the robot: bt_navigator's `navigate_to_pose` and
 /// `navigate_through_poses` (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs)
-/// and behavior_server's `spin`, `backup` and `wait` (behaviors.rs). Only with `follow_plan`: a
+/// and behavior_server's `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs). Only with `follow_plan`: a
 /// node standing in for planner_server in a whole Nav2 stack (`follow_plan: false`, as the
 /// README sets it up) serves nothing that the stack's own servers serve, so none of their
 /// goals (a behaviour tree's Spin, a user's goToPose) can reach this node instead.
@@ -145,6 +146,14 @@ fn serve_driving_actions(
             action_qos(),
         )?,
     );
+    let drive_on_heading = AsyncActionServer::new(
+        node.create_action_server::<DriveOnHeadingGoal, BehaviorResult, BackUpFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("drive_on_heading")?,
+            &ActionTypeName::new("nav2_msgs", "DriveOnHeading"),
+            action_qos(),
+        )?,
+    );
     let wait = AsyncActionServer::new(
         node.create_action_server::<WaitGoal, BehaviorResult, WaitFeedback>(
             ServiceMapping::Enhanced,
@@ -171,9 +180,12 @@ fn serve_driving_actions(
     tasks.spawn(crate::behaviors::serve_all(
         shared.clone(),
         out.clone(),
-        spin,
-        backup,
-        wait,
+        crate::behaviors::BehaviorServers {
+            spin,
+            backup,
+            drive_on_heading,
+            wait,
+        },
     ));
     Ok(())
 }
