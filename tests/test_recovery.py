@@ -13,7 +13,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
   on the way, and to stop at the end.
 - Blocked until the first recovery, then free: the goal succeeds, with one recovery reported.
 - A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it.
-- A /goal_pose whose robot makes no progress is given up: the robot is told to stop.
+- A /goal_pose whose robot makes no progress is recovered the same way (bt_navigator makes a
+  navigate_to_pose goal of it), then given up: the robot is told to stop.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
   and driveOnHeading()): the robot turns through the angle, backs up the distance, drives on,
   a back-up towards the pillar stops short of it with COLLISION_AHEAD (714), a back-up sideways
@@ -158,17 +159,28 @@ def test_a_robot_that_makes_no_progress_is_recovered_then_given_up_on(rig):
     assert all(f.number_of_recoveries == 0 for f in feedback)
     assert time.time() - t0 < 3.0
 
-    # A /goal_pose whose robot makes no progress is given up too (no recoveries: no action to
-    # report them to): the robot is told to stop, and stays stopped.
+    # A /goal_pose whose robot makes no progress is recovered as navigate_to_pose's goal is (as
+    # bt_navigator makes one of it): the robot is told to spin between tries, and after the
+    # retries to stop, and stays stopped.
     robot.blocked = True
     robot.cmds.clear()
     ros.wait_matched(ros.goal_pub, "/goal_pose")
+    t0 = time.time()
     ros.goal_pub.publish(stamped(*START))
     ros.spin_until(lambda: any(c.linear.x != 0.0 or c.angular.z != 0.0 for c in robot.cmds), 20, "the node to drive")
-    ros.spin_until(lambda: robot.cmds[-1].linear.x == 0.0 and robot.cmds[-1].angular.z == 0.0, ALLOWANCE + 5, "a stop")
-    stopped = len(robot.cmds)
-    ros.spin_for(1.5)
-    assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in robot.cmds[stopped:]), "driving again"
+    ros.spin_until(lambda: any(c.linear.x == 0.0 and c.angular.z > 0.1 for c in robot.cmds), ALLOWANCE + 10, "a recovery spin")
+
+    def stopped_for_good():
+        if robot.cmds[-1].linear.x != 0.0 or robot.cmds[-1].angular.z != 0.0:
+            return False
+        n = len(robot.cmds)
+        ros.spin_for(1.5)  # longer than any wait of a recovery (WAIT)
+        return all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in robot.cmds[n:])
+
+    ros.spin_until(stopped_for_good, 60, "the goal to be given up, the robot stopped")
+    # Three tries of ALLOWANCE s and two recoveries, as the action's goal above.
+    assert time.time() - t0 >= (RETRIES + 1) * ALLOWANCE + 3 * BEHAVIOR_ALLOWANCE, time.time() - t0
+    assert any(c.linear.x < -0.01 and c.angular.z == 0.0 for c in robot.cmds), "no back-up"
 
 
 def behave(ros, client, goal, timeout):

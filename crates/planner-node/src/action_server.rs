@@ -35,6 +35,16 @@ pub struct GoalStop {
 }
 
 impl GoalStop {
+    /// The stop of a goal no client can cancel or preempt (a `/goal_pose`'s drive): it ends
+    /// only when a newer goal takes the robot, or the node stops.
+    pub fn never() -> Self {
+        Self {
+            stops: Arc::new(Stops::default()),
+            number: 0,
+            id: GoalId::ZERO,
+        }
+    }
+
     /// A newer goal of the same action has arrived.
     pub fn preempted(&self) -> bool {
         self.stops.newest.load(Ordering::SeqCst) != self.number

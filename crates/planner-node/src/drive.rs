@@ -100,16 +100,34 @@ pub async fn drive_to<P, Fut>(
     goals: &[Pose2],
     mine: u64,
     stop: &GoalStop,
+    progress: P,
+) -> DriveEnd
+where
+    P: FnMut(Progress) -> Fut,
+    Fut: Future<Output = ()>,
+{
+    let turn = RoundRobin::new(s);
+    drive_with_recoveries(s, o, goals, mine, stop, progress, turn, 0).await
+}
+
+/// [`drive_to`] after `recoveries` recoveries already made, the next behaviour `turn`'s.
+#[allow(clippy::too_many_arguments)]
+async fn drive_with_recoveries<P, Fut>(
+    s: &Arc<Shared>,
+    o: &Outputs,
+    goals: &[Pose2],
+    mine: u64,
+    stop: &GoalStop,
     mut progress: P,
+    mut turn: RoundRobin,
+    mut recoveries: u16,
 ) -> DriveEnd
 where
     P: FnMut(Progress) -> Fut,
     Fut: Future<Output = ()>,
 {
     let retries = s.params.recovery.number_of_retries;
-    let mut turn = RoundRobin::new(s);
     let mut ahead = goals;
-    let mut recoveries: u16 = 0;
     loop {
         let mut last: Option<Progress> = None;
         let end = drive_once(s, o, ahead, mine, stop, |p: Progress| {
@@ -159,6 +177,50 @@ where
             ahead = &ahead[ahead.len() - p.poses_remaining.clamp(1, ahead.len())..];
         }
     }
+}
+
+/// A `/goal_pose` goal (`mine`) whose drive made no progress (`why`), recovered as bt_navigator
+/// recovers the navigate_to_pose goal it makes of one: the robot (stopped) makes the first
+/// recovery behaviour, and the goal is driven on through `goals` (the poses it had not passed)
+/// as [`drive_to`] drives, with the recoveries left. Its navigation is this drive's from now on
+/// ([`Shared::hand_topic_goal_to_drive`]) and ends with it. No action reports on it: the end is
+/// logged, and the robot stopped unless it arrived.
+pub async fn recover_topic_goal(
+    s: Arc<Shared>,
+    o: Outputs,
+    goals: Vec<Pose2>,
+    mine: u64,
+    why: String,
+) {
+    let retries = s.params.recovery.number_of_retries;
+    if retries == 0 || goals.is_empty() || !s.hand_topic_goal_to_drive(mine) {
+        warn!("goal {mine} from /goal_pose given up: {why}");
+        s.stop_following(mine);
+        s.done_topic_goal(mine);
+        return;
+    }
+    let stop = GoalStop::never();
+    let mut turn = RoundRobin::new(&s);
+    warn!("goal {mine} from /goal_pose: {why}; recovery 1 of {retries}");
+    let end = match turn.recover(&s, mine, &stop).await {
+        Recovered::Yes => {
+            let no_feedback = |_| async {};
+            drive_with_recoveries(&s, &o, &goals, mine, &stop, no_feedback, turn, 1).await
+        }
+        Recovered::Stopped => DriveEnd::Stopped,
+        Recovered::Taken(end) => end,
+        Recovered::AllFailed(how) => {
+            DriveEnd::NotReached(format!("{why}; every recovery failed ({how})"))
+        }
+    };
+    match &end {
+        DriveEnd::Reached => info!("goal {mine} from /goal_pose reached after recoveries"),
+        DriveEnd::Superseded | DriveEnd::Stopped => {}
+        DriveEnd::NoPlan(f) => warn!("goal {mine} from /goal_pose given up: {}", f.message),
+        DriveEnd::NotReached(why) => warn!("goal {mine} from /goal_pose given up: {why}"),
+    }
+    s.stop_following(mine);
+    s.done_navigating(mine);
 }
 
 /// The recovery behaviours of one drive, taken in turn (Nav2's `RoundRobin`): each recovery

@@ -1,6 +1,7 @@
 //! The path follower's loop: the node drives the plan it published, from `/odom`, through
 //! the chassis library's regulated pure pursuit, within the twist and acceleration limits. A
-//! `/goal_pose`'s drive, which no action watches, is checked for progress here.
+//! `/goal_pose`'s drive, which no action watches, is checked for progress here, and handed to
+//! the recoveries (drive.rs) when it makes none.
 
 use crate::drive::StallWatch;
 use crate::outputs::Outputs;
@@ -78,8 +79,8 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                 }
             }
         };
-        // A /goal_pose's drive that makes no progress stops and ends, as navigate_to_pose's
-        // would (without its recoveries: no action is there to report them).
+        // A /goal_pose's drive that makes no progress stops and is recovered, as
+        // navigate_to_pose's would be.
         match s.topic_goal().filter(|&g| s.is_following(g)) {
             Some(goal) => {
                 if watched.as_ref().is_none_or(|(g, _)| *g != goal) {
@@ -87,9 +88,17 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                 }
                 let (_, watch) = watched.as_mut().expect("set above");
                 if let Some(why) = watch.stuck(pose) {
-                    warn!("goal {goal} from /goal_pose given up: {why}");
+                    // Recovered as navigate_to_pose's drive would be (drive.rs), through the
+                    // poses it has not passed; the robot stops meanwhile.
+                    let ahead = s.goals_ahead_of(goal).unwrap_or_default();
                     s.stop_following(goal);
-                    s.done_topic_goal(goal);
+                    tokio::spawn(crate::drive::recover_topic_goal(
+                        s.clone(),
+                        o.clone(),
+                        ahead,
+                        goal,
+                        why,
+                    ));
                     watched = None;
                 }
             }

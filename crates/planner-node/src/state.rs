@@ -363,6 +363,21 @@ impl Shared {
         self.end_navigation_if(|n| n.from_topic && n.owner == owner);
     }
 
+    /// Hands `/goal_pose` goal `owner`'s navigation to a drive (its recoveries: drive.rs), if it
+    /// is still the one navigating: from now on only that drive ends it
+    /// ([`Shared::done_navigating`]), as an action's drive ends its own, and the follower no
+    /// longer watches its progress. Returns whether it did.
+    pub fn hand_topic_goal_to_drive(&self, owner: u64) -> bool {
+        let mut navigator = self.navigator.lock().expect("lock");
+        match navigator.as_mut() {
+            Some(n) if n.from_topic && n.owner == owner && self.owns_robot(owner) => {
+                n.from_topic = false;
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Ends a `/goal_pose`'s navigation (the node left the active state, and the follower with
     /// it); an action's drive ends its own.
     pub fn end_topic_navigation(&self) {
@@ -413,6 +428,14 @@ impl Shared {
         let followed = self.followed.lock().expect("lock");
         let (f, now) = (follower.as_ref()?, followed.as_ref()?);
         Arc::ptr_eq(&now.path, path).then(|| now.goals_ahead(f.progress()))
+    }
+
+    /// The goals still ahead of goal `owner`'s robot, if its path is being followed.
+    pub fn goals_ahead_of(&self, owner: u64) -> Option<Vec<Pose2>> {
+        let follower = self.follower.lock().expect("lock");
+        let followed = self.followed.lock().expect("lock");
+        let (f, now) = (follower.as_ref()?, followed.as_ref()?);
+        (now.owner == owner).then(|| now.goals_ahead(f.progress()))
     }
 
     /// Whether goal `owner`'s path was finished (the follower arrived) since `since`.
@@ -954,6 +977,18 @@ mod tests {
         assert_eq!(s.topic_goal(), Some(click));
         s.done_topic_goal(click);
         assert_eq!(s.topic_goal(), None);
+        // A click handed to its recoveries' drive is that drive's to end, as an action's is.
+        let click = s.take_robot_as("navigate_to_pose").unwrap();
+        assert!(s.hand_topic_goal_to_drive(click));
+        assert!(!s.hand_topic_goal_to_drive(click), "once");
+        assert_eq!(s.topic_goal(), None, "the follower no longer watches it");
+        s.done_topic_goal(click);
+        s.end_topic_navigation();
+        assert_eq!(
+            s.start_navigating("navigate_through_poses"),
+            Err("navigate_to_pose")
+        );
+        s.done_navigating(click);
         let route = s.start_navigating("navigate_through_poses").unwrap();
         // While a route drives, a /goal_pose is refused and the route keeps the robot.
         assert_eq!(
