@@ -52,11 +52,12 @@ pub struct NodeParams {
     pub twist_limits: TwistLimits,
     /// The path follower.
     pub follower: FollowerParams,
-    /// Nav2's progress checker (controller_server's `PoseProgressChecker`): an action's drive
-    /// that has neither moved nor turned far enough within its allowance fails to make progress.
+    /// Nav2's progress checker (controller_server's `PoseProgressChecker`): a drive (an
+    /// action's goal, a patrol leg, a `/goal_pose`) that has neither moved nor turned far enough
+    /// within its allowance fails to make progress.
     pub progress_checker: ProgressParams,
-    /// What an action's drive does when it fails in a way a recovery may help, as bt_navigator's
-    /// recovery tree does.
+    /// What a drive does when it fails in a way a recovery may help, as bt_navigator's recovery
+    /// tree does.
     pub recovery: RecoveryParams,
     /// The spin, back-up, drive-on-heading and wait behaviours (as Nav2's behavior server).
     pub behavior_server: BehaviorServerParams,

@@ -10,8 +10,8 @@
 //! `onCycleUpdate` does: it ends when the motion is done, fails with TIMEOUT past its time
 //! allowance, with TF_ERROR when odometry stops, and with COLLISION_AHEAD, stopping first, when a
 //! pose the robot would pass within `behavior_server.simulate_ahead_time` is within the robot's
-//! radius of an obstacle on the grid the node plans on. A spin or back-up goal takes the robot as
-//! any goal does (a newer goal of any kind takes it back); a wait goal only waits, as Nav2's. A
+//! radius of an obstacle on the grid the node plans on. A spin, back-up or drive goal takes the
+//! robot as any goal does (a newer goal of any kind takes it back); a wait goal only waits, as Nav2's. A
 //! client's cancel stops a behaviour (canceled), a newer goal of the same action preempts it
 //! (aborted), as Nav2's behaviours end.
 
@@ -270,12 +270,12 @@ fn collision_ahead(s: &Shared, motion: &Motion, pose: Pose2) -> Option<String> {
     })
 }
 
-/// What the three actions' goals have in common.
+/// What the behaviour actions' goals have in common.
 trait BehaviorGoal: ros2_client::Message + Clone + Send + Sync + 'static {
     type Feedback: ros2_client::Message + Send + Sync + 'static;
     const NAME: &'static str;
-    /// The action's UNKNOWN code; the others follow it in nav2_msgs' order.
-    const CODE_BASE: u16;
+    /// The action's result codes (nav2_msgs, Jazzy).
+    const CODES: Codes;
     fn behavior(&self) -> Behavior;
     /// Why the goal asks for what the behaviour cannot do, if it does.
     fn refusal(&self) -> Option<String> {
@@ -284,7 +284,32 @@ trait BehaviorGoal: ros2_client::Message + Clone + Send + Sync + 'static {
     fn allowance(&self) -> Option<Duration>;
     fn feedback(progress: f64) -> Self::Feedback;
     /// The action's code for a failure.
-    fn code(f: BehaviorFailure) -> u16;
+    fn code(f: BehaviorFailure) -> u16 {
+        let c = Self::CODES;
+        match f {
+            BehaviorFailure::Unknown => c.unknown,
+            BehaviorFailure::Timeout => c.timeout,
+            BehaviorFailure::TfError => c.tf_error,
+            BehaviorFailure::InvalidInput => c.invalid_input,
+            BehaviorFailure::CollisionAhead => c.collision_ahead,
+        }
+    }
+}
+
+/// One action's result codes, as its `.action` file numbers them.
+struct Codes {
+    unknown: u16,
+    timeout: u16,
+    tf_error: u16,
+    invalid_input: u16,
+    collision_ahead: u16,
+}
+
+/// The feedback of a drive (back-up, drive on heading): the distance driven.
+fn drive_feedback(progress: f64) -> BackUpFeedback {
+    BackUpFeedback {
+        distance_traveled: progress as f32,
+    }
 }
 
 /// A goal's `time_allowance`: zero (or negative) is no limit, as in nav2_behaviors.
@@ -296,7 +321,14 @@ fn allowance(d: &DurationMsg) -> Option<Duration> {
 impl BehaviorGoal for SpinGoal {
     type Feedback = SpinFeedback;
     const NAME: &'static str = "spin";
-    const CODE_BASE: u16 = 700;
+    /// Spin has no INVALID_INPUT: UNKNOWN serves.
+    const CODES: Codes = Codes {
+        unknown: 700,
+        timeout: 701,
+        tf_error: 702,
+        invalid_input: 700,
+        collision_ahead: 703,
+    };
     fn behavior(&self) -> Behavior {
         Behavior::Spin(f64::from(self.target_yaw))
     }
@@ -308,22 +340,18 @@ impl BehaviorGoal for SpinGoal {
             angular_distance_traveled: progress as f32,
         }
     }
-    /// UNKNOWN 700, TIMEOUT 701, TF_ERROR 702, COLLISION_AHEAD 703 (no INVALID_INPUT).
-    fn code(f: BehaviorFailure) -> u16 {
-        Self::CODE_BASE
-            + match f {
-                BehaviorFailure::Unknown | BehaviorFailure::InvalidInput => 0,
-                BehaviorFailure::Timeout => 1,
-                BehaviorFailure::TfError => 2,
-                BehaviorFailure::CollisionAhead => 3,
-            }
-    }
 }
 
 impl BehaviorGoal for BackUpGoal {
     type Feedback = BackUpFeedback;
     const NAME: &'static str = "backup";
-    const CODE_BASE: u16 = 710;
+    const CODES: Codes = Codes {
+        unknown: 710,
+        timeout: 711,
+        tf_error: 712,
+        invalid_input: 713,
+        collision_ahead: 714,
+    };
     /// Backwards whatever the signs, as nav2_behaviors' BackUp takes both magnitudes.
     fn behavior(&self) -> Behavior {
         Behavior::Drive {
@@ -340,35 +368,30 @@ impl BehaviorGoal for BackUpGoal {
         allowance(&self.time_allowance)
     }
     fn feedback(progress: f64) -> BackUpFeedback {
-        BackUpFeedback {
-            distance_traveled: progress as f32,
-        }
-    }
-    /// UNKNOWN 710, TIMEOUT 711, TF_ERROR 712, INVALID_INPUT 713, COLLISION_AHEAD 714.
-    fn code(f: BehaviorFailure) -> u16 {
-        Self::CODE_BASE
-            + match f {
-                BehaviorFailure::Unknown => 0,
-                BehaviorFailure::Timeout => 1,
-                BehaviorFailure::TfError => 2,
-                BehaviorFailure::InvalidInput => 3,
-                BehaviorFailure::CollisionAhead => 4,
-            }
+        drive_feedback(progress)
     }
 }
 
 impl BehaviorGoal for DriveOnHeadingGoal {
     type Feedback = BackUpFeedback;
     const NAME: &'static str = "drive_on_heading";
-    const CODE_BASE: u16 = 720;
+    const CODES: Codes = Codes {
+        unknown: 720,
+        timeout: 721,
+        tf_error: 722,
+        invalid_input: 724,
+        collision_ahead: 723,
+    };
     fn behavior(&self) -> Behavior {
         Behavior::Drive {
             distance: self.target.x,
             speed: f64::from(self.speed).abs(),
         }
     }
-    /// As nav2_behaviors' DriveOnHeading: only along the robot's heading, and the distance and
-    /// the speed of one sign (a zero distance has none: refused, as there).
+    /// As nav2_behaviors' DriveOnHeading: only along the robot's heading, and `target.x > 0`
+    /// exactly when `speed > 0` (so a zero distance passes with a speed not above 0, and is
+    /// done at once). Unlike Nav2, a speed of 0, which would drive at 0 m/s until the time
+    /// allowance, is refused too ([`Behavior::motion`]).
     fn refusal(&self) -> Option<String> {
         if self.target.y != 0.0 || self.target.z != 0.0 {
             return Some("driving in y and z is not supported: only target.x is driven".into());
@@ -380,20 +403,7 @@ impl BehaviorGoal for DriveOnHeadingGoal {
         allowance(&self.time_allowance)
     }
     fn feedback(progress: f64) -> BackUpFeedback {
-        BackUpFeedback {
-            distance_traveled: progress as f32,
-        }
-    }
-    /// UNKNOWN 720, TIMEOUT 721, TF_ERROR 722, COLLISION_AHEAD 723, INVALID_INPUT 724.
-    fn code(f: BehaviorFailure) -> u16 {
-        Self::CODE_BASE
-            + match f {
-                BehaviorFailure::Unknown => 0,
-                BehaviorFailure::Timeout => 1,
-                BehaviorFailure::TfError => 2,
-                BehaviorFailure::CollisionAhead => 3,
-                BehaviorFailure::InvalidInput => 4,
-            }
+        drive_feedback(progress)
     }
 }
 
@@ -401,7 +411,13 @@ impl BehaviorGoal for WaitGoal {
     type Feedback = WaitFeedback;
     const NAME: &'static str = "wait";
     /// Jazzy's Wait result has no codes: a wait that cannot run says why with code 0.
-    const CODE_BASE: u16 = 0;
+    const CODES: Codes = Codes {
+        unknown: 0,
+        timeout: 0,
+        tf_error: 0,
+        invalid_input: 0,
+        collision_ahead: 0,
+    };
     fn behavior(&self) -> Behavior {
         Behavior::Wait(allowance(&self.time).unwrap_or_default())
     }
@@ -412,9 +428,6 @@ impl BehaviorGoal for WaitGoal {
         WaitFeedback {
             time_left: duration_msg(Duration::from_secs_f64(progress.max(0.0))),
         }
-    }
-    fn code(_: BehaviorFailure) -> u16 {
-        0
     }
 }
 
@@ -550,7 +563,10 @@ mod tests {
         g.target.x = 0.5;
         assert_eq!(g.refusal(), None);
         g.target.x = 0.0;
-        assert!(g.refusal().is_some(), "no distance has no sign");
+        assert!(g.refusal().is_some(), "0 is not above 0, the speed is");
+        g.speed = -0.2;
+        assert_eq!(g.refusal(), None, "and done at once");
+        g.speed = 0.2;
         g.target.x = 0.5;
         g.target.z = 1.0;
         assert!(g.refusal().is_some());

@@ -182,8 +182,8 @@ where
 /// A `/goal_pose` goal (`mine`) whose drive made no progress (`why`), recovered as bt_navigator
 /// recovers the navigate_to_pose goal it makes of one: the robot (stopped) makes the first
 /// recovery behaviour, and the goal is driven on through `goals` (the poses it had not passed)
-/// as [`drive_to`] drives, with the recoveries left. Its navigation is this drive's from now on
-/// ([`Shared::hand_topic_goal_to_drive`]) and ends with it. No action reports on it: the end is
+/// as [`drive_to`] drives, with the recoveries left. Its navigation, handed to this drive first
+/// ([`Shared::hand_topic_goal_to_drive`]), ends with it. No action reports on it: the end is
 /// logged, and the robot stopped unless it arrived.
 pub async fn recover_topic_goal(
     s: Arc<Shared>,
@@ -193,12 +193,6 @@ pub async fn recover_topic_goal(
     why: String,
 ) {
     let retries = s.params.recovery.number_of_retries;
-    if retries == 0 || goals.is_empty() || !s.hand_topic_goal_to_drive(mine) {
-        warn!("goal {mine} from /goal_pose given up: {why}");
-        s.stop_following(mine);
-        s.done_topic_goal(mine);
-        return;
-    }
     let stop = GoalStop::never();
     let mut turn = RoundRobin::new(&s);
     warn!("goal {mine} from /goal_pose: {why}; recovery 1 of {retries}");
@@ -215,7 +209,8 @@ pub async fn recover_topic_goal(
     };
     match &end {
         DriveEnd::Reached => info!("goal {mine} from /goal_pose reached after recoveries"),
-        DriveEnd::Superseded | DriveEnd::Stopped => {}
+        DriveEnd::Superseded => info!("goal {mine} from /goal_pose superseded by a newer goal"),
+        DriveEnd::Stopped => {}
         DriveEnd::NoPlan(f) => warn!("goal {mine} from /goal_pose given up: {}", f.message),
         DriveEnd::NotReached(why) => warn!("goal {mine} from /goal_pose given up: {why}"),
     }

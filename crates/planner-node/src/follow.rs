@@ -92,13 +92,20 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                     // poses it has not passed; the robot stops meanwhile.
                     let ahead = s.goals_ahead_of(goal).unwrap_or_default();
                     s.stop_following(goal);
-                    tokio::spawn(crate::drive::recover_topic_goal(
-                        s.clone(),
-                        o.clone(),
-                        ahead,
-                        goal,
-                        why,
-                    ));
+                    // Handed over here, before anything else can end its navigation.
+                    let recover = s.params.recovery.number_of_retries > 0 && !ahead.is_empty();
+                    if recover && s.hand_topic_goal_to_drive(goal) {
+                        tokio::spawn(crate::drive::recover_topic_goal(
+                            s.clone(),
+                            o.clone(),
+                            ahead,
+                            goal,
+                            why,
+                        ));
+                    } else {
+                        warn!("goal {goal} from /goal_pose given up: {why}");
+                        s.done_topic_goal(goal);
+                    }
                     watched = None;
                 }
             }

@@ -359,7 +359,8 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
             }
         }
         // A goal not driven now (failed, or only planned) is no longer navigating: a
-        // `/goal_pose`'s navigation ends here, or on arrival or no progress (follow.rs).
+        // `/goal_pose`'s navigation ends here, or on arrival (follow.rs), or with the drive
+        // that recovers it when it makes no progress (drive.rs).
         if !s.is_following(id) {
             s.done_topic_goal(id);
         }

@@ -170,7 +170,8 @@ struct Navigation {
     name: &'static str,
     owner: u64,
     /// A `/goal_pose`'s, which no action's drive ends: the planning task, the follower and a
-    /// lifecycle transition do ([`Shared::done_topic_goal`]).
+    /// lifecycle transition do ([`Shared::done_topic_goal`]), until it is handed to its
+    /// recoveries' drive ([`Shared::hand_topic_goal_to_drive`]), which then ends it.
     from_topic: bool,
 }
 
@@ -331,8 +332,9 @@ impl Shared {
     /// `/goal_pose`, which bt_navigator sends to its `navigate_to_pose`): refused, `Err` naming
     /// the other, while the other navigate action is navigating; a running goal of `name` itself
     /// loses the robot to it, as a preempt. The goal then navigates as `name` until it is
-    /// reached, fails, makes no progress or loses the robot: the planning task and the
-    /// follower end it ([`Shared::done_topic_goal`]), as there is no action's drive to.
+    /// reached, fails or loses the robot: the planning task and the follower end it
+    /// ([`Shared::done_topic_goal`]), as there is no action's drive to, or, once it made no
+    /// progress and is recovered, its recoveries' drive (drive.rs).
     pub fn take_robot_as(&self, name: &'static str) -> Result<u64, &'static str> {
         self.navigate(name, true)
     }
