@@ -129,8 +129,13 @@ def navigate(ros, client, goal, on_feedback, timeout):
 def test_a_robot_that_makes_no_progress_is_recovered_then_given_up_on(rig):
     ros, robot, client = rig
     t0 = time.time()
-    r, feedback = navigate(ros, client, GOAL, lambda f: None, 60)
+    heard = []
+    r, feedback = navigate(ros, client, GOAL, lambda f: heard.append(time.time()), 60)
     took = time.time() - t0
+    # The feedback goes on during the recoveries' behaviours (the longest: back up, spin and
+    # wait, 4.5 s), as bt_navigator's does.
+    gaps = [b - a for a, b in zip(heard, heard[1:])]
+    assert max(gaps) < 2.0, max(gaps)
     assert r.status == GoalStatus.STATUS_ABORTED, r.status
     assert r.result.error_code == 105, (r.result.error_code, r.result.error_msg)
     assert "no progress" in r.result.error_msg, r.result.error_msg

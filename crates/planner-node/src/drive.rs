@@ -162,8 +162,24 @@ where
         if let Some(p) = report {
             progress(p).await;
         }
-        // The robot (stopped by drive_once) makes the next behaviour that works.
-        match turn.recover(s, mine, stop).await {
+        // The robot (stopped by drive_once) makes the next behaviour that works; the feedback
+        // follows it (its pose, the goal's straight distance: no plan is followed meanwhile).
+        let during = |_| {
+            let now = s.odom.read().expect("lock").map(|(p, _)| p);
+            let tick = report.zip(now).map(|(p, robot)| Progress {
+                robot,
+                remaining_m: (goal.x - robot.x).hypot(goal.y - robot.y),
+                speed: 0.0,
+                ..p
+            });
+            let sent = tick.map(&mut progress);
+            async move {
+                if let Some(sent) = sent {
+                    sent.await;
+                }
+            }
+        };
+        match turn.recover(s, mine, stop, during).await {
             Recovered::Yes => {}
             Recovered::Stopped => return DriveEnd::Stopped,
             Recovered::Taken(end) => return end,
@@ -196,7 +212,7 @@ pub async fn recover_topic_goal(
     let stop = GoalStop::never();
     let mut turn = RoundRobin::new(&s);
     warn!("goal {mine} from /goal_pose: {why}; recovery 1 of {retries}");
-    let end = match turn.recover(&s, mine, &stop).await {
+    let end = match turn.recover(&s, mine, &stop, |_| async {}).await {
         Recovered::Yes => {
             let no_feedback = |_| async {};
             drive_with_recoveries(&s, &o, &goals, mine, &stop, no_feedback, turn, 1).await
@@ -258,14 +274,24 @@ impl RoundRobin {
     }
 
     /// Makes behaviours in turn until one succeeds (or all have failed).
-    async fn recover(&mut self, s: &Arc<Shared>, mine: u64, stop: &GoalStop) -> Recovered {
+    async fn recover<P, Fut>(
+        &mut self,
+        s: &Arc<Shared>,
+        mine: u64,
+        stop: &GoalStop,
+        mut progress: P,
+    ) -> Recovered
+    where
+        P: FnMut(f64) -> Fut,
+        Fut: Future<Output = ()>,
+    {
         let mut failures = Vec::new();
         for _ in 0..self.behaviors.len() {
             let behavior = self.behaviors[self.next];
             self.next = (self.next + 1) % self.behaviors.len();
             info!("drive for goal {mine}: recovery: {behavior}");
-            let no_progress = |_| async {};
-            match behaviors::run(s, behavior, Some(self.allowance), mine, stop, no_progress).await {
+            let allowance = Some(self.allowance);
+            match behaviors::run(s, behavior, allowance, mine, stop, &mut progress).await {
                 BehaviorEnd::Succeeded => return Recovered::Yes,
                 BehaviorEnd::Stopped => return Recovered::Stopped,
                 BehaviorEnd::Taken(end) => return Recovered::Taken(end),
