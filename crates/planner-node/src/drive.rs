@@ -85,8 +85,8 @@ const TICK: Duration = Duration::from_millis(100);
 
 /// Drives through `goals` (global frame; via poses in order, then the goal, which the robot ends
 /// facing) for goal `mine` (its claim on the robot, [`Shared::take_robot`]: a patrol takes it
-/// once for all its legs), calling `progress` each tick while the plan is followed and once at
-/// each recovery. A failure a recovery may help is tried again up to
+/// once for all its legs), calling `progress` each tick while the plan is followed or a
+/// recovery's behaviour runs, and at once when a recovery starts. A failure a recovery may help is tried again up to
 /// `recovery.number_of_retries` times, each after a recovery behaviour (behaviors.rs), taken in
 /// turn from `recovery.behaviors` as Nav2's trees' round robin takes them: the robot stops and
 /// spins, waits or backs up, and the drive plans again from where it is, through the poses it
