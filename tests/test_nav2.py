@@ -156,6 +156,8 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         driving = {"/navigate_to_pose", "/navigate_through_poses", "/follow_waypoints", "/spin", "/backup",
                    "/drive_on_heading", "/wait"}
         assert not served & driving, served
+        services = {name for name, _ in ros.node.get_service_names_and_types()}
+        assert "/is_path_valid" in services and "/global_costmap/get_costmap" not in services, services
 
         # Two goals that end before their clients ask for the results, asked for in the other
         # order: each client gets its own (ros2-client reads result requests only while sending

@@ -15,6 +15,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it.
 - A /goal_pose whose robot makes no progress is recovered the same way (bt_navigator makes a
   navigate_to_pose goal of it), then given up: the robot is told to stop.
+- The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
+  room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
   and driveOnHeading()): the robot turns through the angle, backs up the distance, drives on,
   a back-up towards the pillar stops short of it with COLLISION_AHEAD (714), a back-up sideways
@@ -32,6 +34,7 @@ from nav_msgs.srv import GetPlan
 from rclpy.action import ActionClient
 
 from nav2_msgs.action import BackUp, DriveOnHeading, NavigateToPose, Spin, Wait
+from nav2_msgs.srv import GetCostmap
 
 from conftest import ROOT, Ros, call_service, domain_id, stamped, start_node, stop_binary
 from test_node import grid_msg
@@ -271,3 +274,16 @@ def test_the_behavior_servers_actions(rig):
     assert r.status == GoalStatus.STATUS_SUCCEEDED
     assert time.time() - t0 >= 1.0
     assert feedback and feedback[0].time_left.sec + feedback[0].time_left.nanosec * 1e-9 > 0.5
+
+
+def test_the_global_costmap_as_get_global_costmap_asks(rig):
+    ros, _, _ = rig
+    costmap = call_service(ros, GetCostmap, "global_costmap/get_costmap", GetCostmap.Request()).map
+    meta = costmap.metadata
+    assert (meta.size_x, meta.size_y, meta.layer) == (60, 30, "master"), meta
+    assert abs(meta.resolution - 0.1) < 1e-6 and costmap.header.frame_id == "map"
+    cost = np.array(costmap.data, dtype=np.uint8).reshape(30, 60)
+    assert (cost[20:30, 25:30] == 254).all(), "the pillar is lethal"
+    assert cost[19, 27] == 253, "next to it, the robot's centre may not be: inscribed"
+    assert cost[5, 55] == 0 and cost[5, 5] == 0, "the open floor, far from the pillar, is free"
+    assert 0 < cost[15, 27] < 253, "graded in between"

@@ -423,6 +423,35 @@ pub mod nav2_msgs {
         pub distance_remaining: f32,
         pub number_of_poses_remaining: i16,
     }
+    /// nav2_msgs/msg/CostmapMetaData
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct CostmapMetaData {
+        pub map_load_time: super::builtin_interfaces::Time,
+        pub update_time: super::builtin_interfaces::Time,
+        pub layer: String,
+        pub resolution: f32,
+        pub size_x: u32,
+        pub size_y: u32,
+        pub origin: super::geometry_msgs::Pose,
+    }
+    /// nav2_msgs/msg/Costmap: costmap_2d's costs (0 free .. 252, 253 inscribed, 254 lethal, 255
+    /// unknown), row-major from cell (0, 0)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct Costmap {
+        pub header: super::std_msgs::Header,
+        pub metadata: CostmapMetaData,
+        pub data: Vec<u8>,
+    }
+    /// nav2_msgs/srv/GetCostmap request (the specs are not read by costmap_2d either)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct GetCostmapRequest {
+        pub specs: CostmapMetaData,
+    }
+    /// nav2_msgs/srv/GetCostmap response
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct GetCostmapResponse {
+        pub map: Costmap,
+    }
     /// nav2_msgs/action/Spin goal (Jazzy)
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct SpinGoal {
@@ -479,6 +508,10 @@ pub mod nav2_msgs {
         pub time_left: Duration,
     }
     messages!(
+        CostmapMetaData,
+        Costmap,
+        GetCostmapRequest,
+        GetCostmapResponse,
         SpinGoal,
         BehaviorResult,
         SpinFeedback,

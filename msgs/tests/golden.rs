@@ -584,6 +584,26 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         g::DRIVE_ON_HEADING_GOAL,
     );
     check("Wait goal", WaitGoal { time: d(5, 60) }, g::WAIT_GOAL);
+    let t = |sec, nanosec| Time { sec, nanosec };
+    check(
+        "GetCostmap response",
+        GetCostmapResponse {
+            map: Costmap {
+                header: header(),
+                metadata: CostmapMetaData {
+                    map_load_time: t(11, 0),
+                    update_time: t(12, 13),
+                    layer: "master".into(),
+                    resolution: 0.05,
+                    size_x: 3,
+                    size_y: 2,
+                    origin: pose_at(1.5, -2.25),
+                },
+                data: vec![0, 1, 252, 253, 254, 255],
+            },
+        },
+        g::GET_COSTMAP_RESPONSE,
+    );
     check(
         "Wait result",
         BehaviorResult {

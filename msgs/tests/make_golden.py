@@ -17,7 +17,8 @@ from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose, DriveOnHeading,
                               FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
-from nav2_msgs.srv import IsPathValid
+from nav2_msgs.srv import GetCostmap, IsPathValid
+from nav2_msgs.msg import Costmap, CostmapMetaData
 
 
 def header(frame="map"):
@@ -144,6 +145,10 @@ def messages():
     g = DriveOnHeading.Goal(target=Point(x=-0.5, y=0.0, z=0.0), speed=-0.2)
     g.time_allowance.sec, g.time_allowance.nanosec = 12, 90
     out["DRIVE_ON_HEADING_GOAL"] = g
+    meta = CostmapMetaData(layer="master", resolution=0.05, size_x=3, size_y=2, origin=pose())
+    meta.map_load_time.sec, meta.update_time.sec, meta.update_time.nanosec = 11, 12, 13
+    out["GET_COSTMAP_RESPONSE"] = GetCostmap.Response(
+        map=Costmap(header=header(), metadata=meta, data=[0, 1, 252, 253, 254, 255]))
     g = Wait.Goal()
     g.time.sec, g.time.nanosec = 5, 60
     out["WAIT_GOAL"] = g

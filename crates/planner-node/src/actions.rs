@@ -236,6 +236,49 @@ pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)
     invalid
 }
 
+/// `global_costmap/get_costmap` (nav2_msgs/srv/GetCostmap), as the global costmap serves it to
+/// nav2_simple_commander's `getGlobalCostmap()`: the grid the planners weigh, each cell's cost on
+/// costmap_2d's scale (an empty costmap before any map, with a warning).
+pub async fn serve_get_costmap(
+    s: Arc<Shared>,
+    o: Outputs,
+    server: ros2_client::Server<
+        patrol_msgs::nav2_msgs::GetCostmapRequest,
+        patrol_msgs::nav2_msgs::GetCostmapResponse,
+    >,
+) {
+    use patrol_msgs::nav2_msgs::GetCostmapResponse;
+    loop {
+        let Ok((id, _request)) = server.async_receive_request().await else {
+            continue;
+        };
+        let shared = s.clone();
+        let map = tokio::task::spawn_blocking(move || shared.current_map())
+            .await
+            .unwrap_or_default();
+        let response = match map {
+            Some(map) => {
+                let header = o.header(&s);
+                GetCostmapResponse {
+                    map: crate::convert::costmap_costs(
+                        map.map(),
+                        &map.grid,
+                        &header.frame_id,
+                        header.stamp,
+                    ),
+                }
+            }
+            None => {
+                warn!("get_costmap: no map yet");
+                GetCostmapResponse::default()
+            }
+        };
+        if let Err(e) = server.async_send_response(id, response).await {
+            warn!("get_costmap response: {e:?}");
+        }
+    }
+}
+
 /// `is_path_valid` (nav2_msgs/srv/IsPathValid): the path against the current map and the
 /// robot's inflation. A path in another frame, or asked of a node that is not active or has no
 /// map, is answered invalid (with no indices) and the reason logged.

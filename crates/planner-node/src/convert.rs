@@ -7,6 +7,7 @@ use patrol_msgs::builtin_interfaces::{Duration, Time};
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Vector3};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
+use patrol_msgs::nav2_msgs::{Costmap, CostmapMetaData};
 use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
 use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
@@ -157,6 +158,36 @@ pub fn costmap_msg(map: &GridMap, grid: &PlanningGrid, frame: &str, stamp: Time)
         .collect();
     grid_msg(map.info(), frame, stamp, data)
 }
+
+/// The planning grid as costmap_2d's GetCostmap service answers (nav2_msgs/Costmap, Nav2's
+/// `getGlobalCostmap()`): each cell's own cost on costmap_2d's scale, and the map's unknown cells
+/// 255 (NO_INFORMATION), as the global costmap tracks unknown space; the layer `master`.
+pub fn costmap_costs(map: &GridMap, grid: &PlanningGrid, frame: &str, stamp: Time) -> Costmap {
+    let info = map.info();
+    let data = map
+        .data()
+        .iter()
+        .zip(grid.costs())
+        .map(|(&v, &cost)| if v == UNKNOWN { NO_INFORMATION } else { cost })
+        .collect();
+    let grid = grid_msg(info, frame, stamp, Vec::new());
+    Costmap {
+        header: grid.header,
+        metadata: CostmapMetaData {
+            map_load_time: stamp,
+            update_time: stamp,
+            layer: "master".into(),
+            resolution: grid.info.resolution,
+            size_x: grid.info.width,
+            size_y: grid.info.height,
+            origin: grid.info.origin,
+        },
+        data,
+    }
+}
+
+/// costmap_2d's cost of a cell nothing is known of.
+const NO_INFORMATION: u8 = 255;
 
 /// An OccupancyGrid of `data` (row-major) over the cells `info` describes.
 fn grid_msg(info: &MapInfo, frame: &str, stamp: Time, data: Vec<i8>) -> OccupancyGrid {

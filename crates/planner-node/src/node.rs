@@ -44,10 +44,10 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     BackUpFeedback, BackUpGoal, BehaviorResult, ComputePathResult, ComputePathThroughPosesGoal,
     ComputePathToPoseGoal, DriveOnHeadingGoal, EmptyFeedback, FollowWaypointsFeedback,
-    FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest, IsPathValidResponse,
-    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
-    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal,
-    WaitFeedback, WaitGoal,
+    FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest, GetCostmapResponse,
+    IsPathValidRequest, IsPathValidResponse, NavigateThroughPosesFeedback,
+    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
+    NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -86,13 +86,15 @@ fn action_qos() -> ActionServerQosPolicies {
     }
 }
 
-/// Serves the actions that drive the robot: bt_navigator's `navigate_to_pose` and
-/// `navigate_through_poses` (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs)
-/// and behavior_server's `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs). Only with `follow_plan`: a
-/// node standing in for planner_server in a whole Nav2 stack (`follow_plan: false`, as the
-/// README sets it up) serves nothing that the stack's own servers serve, so none of their
-/// goals (a behaviour tree's Spin, a user's goToPose) can reach this node instead.
-fn serve_driving_actions(
+/// Serves what the rest of a Nav2 stack serves, for a node standing alone (`follow_plan`): the
+/// actions that drive the robot, bt_navigator's `navigate_to_pose` and `navigate_through_poses`
+/// (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs) and behavior_server's
+/// `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs), and the global costmap's
+/// `global_costmap/get_costmap` (actions.rs). A node standing in for planner_server in a whole
+/// Nav2 stack (`follow_plan: false`, as the README sets it up) serves none of them, so none of
+/// that stack's requests (a behaviour tree's Spin, a user's goToPose) can reach this node
+/// instead of its own servers.
+fn serve_standalone(
     node: &mut ros2_client::Node,
     naming: &Naming,
     tasks: &mut tokio::task::JoinSet<()>,
@@ -146,6 +148,14 @@ fn serve_driving_actions(
             action_qos(),
         )?,
     );
+    // The global costmap's GetCostmap, which nav2_simple_commander's getGlobalCostmap() calls.
+    let get_costmap = node.create_server::<GetCostmapRequest, GetCostmapResponse>(
+        ServiceMapping::Enhanced,
+        &naming.name("global_costmap/get_costmap")?,
+        &ServiceTypeName::new("nav2_msgs", "GetCostmap"),
+        ros_edge::reliable(10, Durability::Volatile),
+        ros_edge::reliable(10, Durability::Volatile),
+    )?;
     let drive_on_heading = AsyncActionServer::new(
         node.create_action_server::<DriveOnHeadingGoal, BehaviorResult, BackUpFeedback>(
             ServiceMapping::Enhanced,
@@ -176,6 +186,11 @@ fn serve_driving_actions(
         shared.clone(),
         out.clone(),
         navigate_through_poses,
+    ));
+    tasks.spawn(actions::serve_get_costmap(
+        shared.clone(),
+        out.clone(),
+        get_costmap,
     ));
     tasks.spawn(crate::behaviors::serve_all(
         shared.clone(),
@@ -609,7 +624,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     tasks.spawn(actions::serve(shared.clone(), out.clone(), through_poses));
     tasks.spawn(actions::serve_is_path_valid(shared.clone(), is_path_valid));
     if params.follow_plan {
-        serve_driving_actions(&mut node, &naming, &mut tasks, &shared, &out)?;
+        serve_standalone(&mut node, &naming, &mut tasks, &shared, &out)?;
     }
     tasks.spawn(planning::serve_get_plan(
         shared.clone(),
