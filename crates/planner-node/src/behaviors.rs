@@ -8,7 +8,7 @@
 //! A motion is made by the node's control loop (follow.rs, from the chassis crate's
 //! `behavior` state machines); the behaviour watches it each tick, as nav2_behaviors'
 //! `onCycleUpdate` does: it ends when the motion is done, fails with TIMEOUT past its time
-//! allowance, with TF_ERROR when odometry stops, and with COLLISION_AHEAD, stopping first, when a
+//! allowance, with TF_ERROR when odometry stops (for a second), and with COLLISION_AHEAD, stopping first, when a
 //! pose the robot would pass within `behavior_server.simulate_ahead_time` is within the robot's
 //! radius of an obstacle on the grid the node plans on. A spin, back-up or drive goal takes the
 //! robot as any goal does (a newer goal of any kind takes it back); a wait goal only waits, as Nav2's. A
@@ -36,6 +36,10 @@ use std::time::{Duration, Instant};
 
 /// How often a behaviour checks on its motion and reports.
 const TICK: Duration = Duration::from_millis(100);
+
+/// How long a behaviour goes on without fresh odometry (`pose_timeout`) before it fails with
+/// TF_ERROR, at its start and while its motion runs.
+const STALE_LIMIT: Duration = Duration::from_secs(1);
 
 /// How long a behaviour waits for the robot to come to rest before its motion starts: braking
 /// from the top speeds takes 1.2 s at the default limits.
@@ -132,7 +136,15 @@ where
         Ok(None) => return wait(behavior, || interrupted(s, mine, stop), progress).await,
         Err(why) => return BehaviorEnd::Failed(BehaviorFailure::InvalidInput, why),
     };
-    let Some(pose) = fresh_pose(s) else {
+    // A pose as fresh as the follower needs, waited for a moment (as a TF lookup waits its
+    // tolerance): a goal may overtake the odometry on a busy machine.
+    let mut pose = fresh_pose(s);
+    let asked = Instant::now();
+    while pose.is_none() && asked.elapsed() < STALE_LIMIT {
+        tokio::time::sleep(TICK).await;
+        pose = fresh_pose(s);
+    }
+    let Some(pose) = pose else {
         return BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
     };
     if let Some(why) = collision_ahead(s, &motion, pose) {
@@ -151,6 +163,7 @@ where
         return taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
     }
     info!("goal {mine}: {behavior}");
+    let mut stale_since: Option<Instant> = None;
     let end = loop {
         tokio::time::sleep(TICK).await;
         if let Some(end) = interrupted(s, mine, stop) {
@@ -177,9 +190,15 @@ where
                 ),
             );
         }
+        // Without fresh odometry the follower loop holds the robot stopped; the behaviour fails
+        // once that has lasted [`STALE_LIMIT`].
         let Some(pose) = fresh_pose(s) else {
-            break BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
+            if stale_since.get_or_insert_with(Instant::now).elapsed() > STALE_LIMIT {
+                break BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
+            }
+            continue;
         };
+        stale_since = None;
         if let Some(why) = collision_ahead(s, &moving.motion, pose) {
             break BehaviorEnd::Failed(BehaviorFailure::CollisionAhead, why);
         }
