@@ -252,22 +252,23 @@ pub async fn serve_get_costmap(
         let Ok((id, _request)) = server.async_receive_request().await else {
             continue;
         };
-        let shared = s.clone();
-        let map = tokio::task::spawn_blocking(move || shared.current_map())
-            .await
-            .unwrap_or_default();
-        let response = match map {
-            Some(map) => {
-                let header = o.header(&s);
-                GetCostmapResponse {
-                    map: crate::convert::costmap_costs(
-                        map.map(),
-                        &map.grid,
-                        &header.frame_id,
-                        header.stamp,
-                    ),
-                }
-            }
+        // One pass over the map, as the costmap publisher makes its message: off the async
+        // threads on a map of millions of cells.
+        let (shared, header) = (s.clone(), o.header(&s));
+        let costmap = tokio::task::spawn_blocking(move || {
+            let map = shared.current_map()?;
+            let (frame, stamp) = (&header.frame_id, header.stamp);
+            Some(crate::convert::costmap_costs(
+                map.map(),
+                &map.grid,
+                frame,
+                stamp,
+            ))
+        })
+        .await
+        .unwrap_or_default();
+        let response = match costmap {
+            Some(map) => GetCostmapResponse { map },
             None => {
                 warn!("get_costmap: no map yet");
                 GetCostmapResponse::default()
@@ -305,10 +306,7 @@ pub async fn serve_is_path_valid(
         } else {
             None
         };
-        let shared = s.clone();
-        let map = tokio::task::spawn_blocking(move || shared.current_map())
-            .await
-            .unwrap_or_default();
+        let map = s.current_map_off_thread().await;
         let response = match (refusal, map) {
             (Some(why), _) => {
                 warn!("is_path_valid: invalid: {why}");

@@ -16,7 +16,7 @@
 //! (aborted), as Nav2's behaviours end.
 
 use crate::action_server::{Feedback, GoalStop};
-use crate::convert::duration_msg;
+use crate::convert::{chassis_pose, duration_msg};
 use crate::drive::{taken, DriveEnd};
 use crate::outputs::Outputs;
 use crate::state::Shared;
@@ -138,11 +138,11 @@ where
     };
     // A pose as fresh as the follower needs, waited for a moment (as a TF lookup waits its
     // tolerance): a goal may overtake the odometry on a busy machine.
-    let mut pose = fresh_pose(s);
+    let mut pose = s.fresh_odom();
     let asked = Instant::now();
     while pose.is_none() && asked.elapsed() < STALE_LIMIT {
         tokio::time::sleep(TICK).await;
-        pose = fresh_pose(s);
+        pose = s.fresh_odom();
     }
     let Some(pose) = pose else {
         return BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
@@ -192,7 +192,7 @@ where
         }
         // Without fresh odometry the follower loop holds the robot stopped; the behaviour fails
         // once that has lasted [`STALE_LIMIT`].
-        let Some(pose) = fresh_pose(s) else {
+        let Some(pose) = s.fresh_odom() else {
             if stale_since.get_or_insert_with(Instant::now).elapsed() > STALE_LIMIT {
                 break BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
             }
@@ -241,15 +241,6 @@ fn interrupted(s: &Shared, mine: u64, stop: &GoalStop) -> Option<BehaviorEnd> {
     taken(s, mine).map(BehaviorEnd::Taken)
 }
 
-/// The robot's pose from odometry no older than `pose_timeout`.
-fn fresh_pose(s: &Shared) -> Option<Pose2> {
-    s.odom
-        .read()
-        .expect("lock")
-        .filter(|(_, t)| t.elapsed().as_secs_f64() <= s.params.pose_timeout)
-        .map(|(p, _)| p)
-}
-
 fn no_pose() -> String {
     "the robot's pose is not available: no fresh /odom".into()
 }
@@ -265,11 +256,7 @@ fn collision_ahead(s: &Shared, motion: &Motion, pose: Pose2) -> Option<String> {
     };
     let radius = s.live.read().expect("lock").config.costmap.robot_radius;
     let ahead = motion.ahead(
-        &chassis::Pose {
-            x: pose.x,
-            y: pose.y,
-            yaw: pose.yaw,
-        },
+        &chassis_pose(pose),
         &s.params.twist_limits,
         s.params.behavior_server.simulate_ahead_time,
         AHEAD_STEP_S,

@@ -248,6 +248,15 @@ pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Heade
     Path { header, poses }
 }
 
+/// A planar pose as the chassis crate's follower, progress checker and motions take it.
+pub fn chassis_pose(p: Pose2) -> chassis::Pose {
+    chassis::Pose {
+        x: p.x,
+        y: p.y,
+        yaw: p.yaw,
+    }
+}
+
 /// A planar pose as geometry_msgs/PoseStamped.
 pub fn pose_stamped(p: Pose2, header: Header) -> PoseStamped {
     PoseStamped {

@@ -14,6 +14,7 @@
 
 use crate::action_server::GoalStop;
 use crate::behaviors::{self, Behavior, BehaviorEnd};
+use crate::convert::chassis_pose;
 use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
@@ -149,29 +150,27 @@ where
         // The recovery is reported at once, even when no plan was followed (no path found):
         // from the last tick, or from where the robot is, the goal's straight distance away.
         let goal = ahead[ahead.len() - 1];
-        let report = last.map(|p| Progress { recoveries, ..p }).or_else(|| {
-            let robot = s.odom.read().expect("lock").map(|(p, _)| p)?;
-            Some(Progress {
-                robot,
-                remaining_m: (goal.x - robot.x).hypot(goal.y - robot.y),
-                speed: 0.0,
-                poses_remaining: ahead.len(),
-                recoveries,
-            })
-        });
+        let robot_now = || s.odom.read().expect("lock").map(|(p, _)| p);
+        // Standing (or in a recovery's motion), following no plan.
+        let standing = |robot: Pose2, poses_remaining| Progress {
+            robot,
+            remaining_m: (goal.x - robot.x).hypot(goal.y - robot.y),
+            speed: 0.0,
+            poses_remaining,
+            recoveries,
+        };
+        let report = last
+            .map(|p| Progress { recoveries, ..p })
+            .or_else(|| Some(standing(robot_now()?, ahead.len())));
         if let Some(p) = report {
             progress(p).await;
         }
         // The robot (stopped by drive_once) makes the next behaviour that works; the feedback
         // follows it (its pose, the goal's straight distance: no plan is followed meanwhile).
         let during = |_| {
-            let now = s.odom.read().expect("lock").map(|(p, _)| p);
-            let tick = report.zip(now).map(|(p, robot)| Progress {
-                robot,
-                remaining_m: (goal.x - robot.x).hypot(goal.y - robot.y),
-                speed: 0.0,
-                ..p
-            });
+            let tick = report
+                .zip(robot_now())
+                .map(|(p, robot)| standing(robot, p.poses_remaining));
             let sent = tick.map(&mut progress);
             async move {
                 if let Some(sent) = sent {
@@ -401,13 +400,7 @@ where
             let poses = followed
                 .as_ref()
                 .map_or(1, |now| now.poses_ahead(f.progress()));
-            let remaining = robot.map(|p| {
-                f.remaining(&chassis::Pose {
-                    x: p.x,
-                    y: p.y,
-                    yaw: p.yaw,
-                })
-            });
+            let remaining = robot.map(|p| f.remaining(&chassis_pose(p)));
             (remaining, poses)
         };
         if let (Some(robot), Some(remaining_m)) = (robot, remaining) {
@@ -470,11 +463,7 @@ impl StallWatch {
     /// Takes the robot's pose now (`None`: no fresh odometry); says why the robot is stuck once
     /// it has made no progress for longer than the allowance.
     pub fn stuck(&mut self, robot: Option<Pose2>) -> Option<String> {
-        let pose = robot.map(|p| chassis::Pose {
-            x: p.x,
-            y: p.y,
-            yaw: p.yaw,
-        });
+        let pose = robot.map(chassis_pose);
         let t = self.started.elapsed().as_secs_f64();
         (!self.checker.check(pose.as_ref(), t)).then(|| {
             let p = self.checker.params();

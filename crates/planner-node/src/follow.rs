@@ -3,6 +3,7 @@
 //! `/goal_pose`'s drive, which no action watches, is checked for progress here, and handed to
 //! the recoveries (drive.rs) when it makes none.
 
+use crate::convert::chassis_pose;
 use crate::drive::StallWatch;
 use crate::outputs::Outputs;
 use crate::state::Shared;
@@ -30,12 +31,7 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
     let mut watched: Option<(u64, StallWatch)> = None;
     loop {
         ticker.tick().await;
-        let pose = s
-            .odom
-            .read()
-            .expect("lock")
-            .filter(|(_, t)| t.elapsed().as_secs_f64() <= s.params.pose_timeout)
-            .map(|(p, _)| p);
+        let pose = s.fresh_odom();
         let cmd = {
             let mut guard = s.follower.lock().expect("lock");
             match (guard.as_mut(), pose) {
@@ -56,14 +52,7 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                 }
                 (Some(f), Some(p)) => {
                     stale_reported = false;
-                    let (cmd, status) = f.command(
-                        &chassis::Pose {
-                            x: p.x,
-                            y: p.y,
-                            yaw: p.yaw,
-                        },
-                        &s.params.twist_limits,
-                    );
+                    let (cmd, status) = f.command(&chassis_pose(p), &s.params.twist_limits);
                     if status == FollowStatus::Arrived {
                         info!("goal reached");
                         *guard = None;
@@ -128,14 +117,9 @@ fn motion_command(s: &Shared, pose: Option<planner_core::geometry::Pose2>) -> Op
     let Some(p) = pose.and(*s.odom_local.read().expect("lock")) else {
         return Some(Twist2::STOP);
     };
-    let (cmd, status) = moving.motion.command(
-        &chassis::Pose {
-            x: p.x,
-            y: p.y,
-            yaw: p.yaw,
-        },
-        &s.params.twist_limits,
-    );
+    let (cmd, status) = moving
+        .motion
+        .command(&chassis_pose(p), &s.params.twist_limits);
     moving.status = status;
     Some(cmd)
 }

@@ -185,8 +185,7 @@ fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapSt
 pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>) {
     loop {
         s.settings_changed.notified().await;
-        let shared = s.clone();
-        if let Ok(Some(map)) = tokio::task::spawn_blocking(move || shared.current_map()).await {
+        if let Some(map) = s.current_map_off_thread().await {
             replan_if_blocked(&s, &slot, &map, "the new inflation");
         }
     }

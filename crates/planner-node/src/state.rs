@@ -269,6 +269,15 @@ impl Shared {
         }
     }
 
+    /// [`Shared::current_map`] from an async task: the grid is made again, if it must be, on a
+    /// blocking thread, not on the runtime's.
+    pub async fn current_map_off_thread(self: &Arc<Self>) -> Option<Arc<MapState>> {
+        let shared = self.clone();
+        tokio::task::spawn_blocking(move || shared.current_map())
+            .await
+            .unwrap_or_default()
+    }
+
     /// A goal or start stamped in a frame the node knows (`localization::KnownFrames`: the
     /// global frame, `odom_frame`, `robot_base_frame`) as a pose in the global frame, through
     /// the latest transform; TF_ERROR, with the reason, for any other frame.
@@ -284,6 +293,16 @@ impl Shared {
             .in_global(crate::convert::frame_name(&msg.header.frame_id))
             .map_err(|why| Failure::new(ResultCode::TfError, why))?;
         Ok(compose(origin, crate::convert::pose2(&msg.pose)?))
+    }
+
+    /// The robot's pose (global frame) from odometry no older than `pose_timeout`: what the
+    /// follower and the behaviours' motions steer by (`None`: they hold the robot stopped).
+    pub fn fresh_odom(&self) -> Option<Pose2> {
+        self.odom
+            .read()
+            .expect("lock")
+            .filter(|(_, t)| t.elapsed().as_secs_f64() <= self.params.pose_timeout)
+            .map(|(p, _)| p)
     }
 
     /// The robot's pose (global frame), waiting up to 3 s for the first one: an action goal
