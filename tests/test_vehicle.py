@@ -90,7 +90,19 @@ def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(r
     ros.spin_until(arrived, 120, "the car to reach the goal")
     print(f"\ndriving time from goal to arrival: {time.time() - sent:.1f} s")
     # The node ends its drive with an explicit stop, as Nav2's controller does, rather than
-    # leaving the chassis on its last command until the bridge's watchdog trips.
+    # leaving the chassis on its last command until the bridge's watchdog trips. The car can look
+    # arrived (within 0.15 m, still) while the node is still closing on its 0.10 m tolerance, so
+    # the drive is over once /cmd_vel has gone quiet (the node sends nothing after its stop; at
+    # 20 Hz, 1 s without a command is 20 missed periods): its last command is then the one judged.
+    seen = {"n": len(cmds), "at": time.time()}
+
+    def quiet():
+        if len(cmds) != seen["n"]:
+            seen["n"], seen["at"] = len(cmds), time.time()
+        return time.time() - seen["at"] >= 1.0
+
+    ros.spin_until(quiet, 30, "the node to stop commanding the car")
+    assert arrived(), "the car moved away from the goal after the node's last command"
     last = cmds[-1]
     assert last.linear.x == 0.0 and last.angular.z == 0.0, f"the last /cmd_vel was {last}"
 
