@@ -15,6 +15,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - A goal inside an obstacle (GOAL_OCCUPIED, 206) is not retried: no recovery helps it.
 - A /goal_pose whose robot makes no progress is recovered the same way (bt_navigator makes a
   navigate_to_pose goal of it), then given up: the robot is told to stop.
+- A /goal_pose with no path at first is recovered too (a failed plan, as bt_navigator's tree
+  recovers ComputePathToPose), and reached once a new map opens the way.
 - The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
   room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
@@ -200,6 +202,38 @@ def test_a_robot_that_makes_no_progress_is_recovered_then_given_up_on(rig):
     assert log.count("from /goal_pose: the robot made no progress") == 1, "one hand-over to the recoveries"
     after = log.split("from /goal_pose: the robot made no progress")[1]
     assert f"recovery {RETRIES} of {RETRIES}" in after and "from /goal_pose given up" in after, after[-2000:]
+
+
+def test_a_goal_pose_with_no_path_yet_is_recovered_and_planned_again(rig):
+    """bt_navigator's tree recovers a failed ComputePathToPose as it recovers a stalled drive:
+    a click that has no path now (a wall across the room) is answered NO_VALID_PATH, then the
+    robot spins and the goal is planned again; once the wall is gone (a new /map) the robot gets
+    there. Before, the click was answered once and dropped."""
+    ros, robot, _ = rig
+    robot.blocked = False
+    walled = np.zeros((30, 60), dtype=np.int8)
+    walled[20:30, 25:30] = 100
+    walled[:, 35:37] = 100  # a wall across the room at x 3.5-3.7 m
+    ros.map_pub.publish(grid_msg(walled, (0.0, 0.0), 0.1))
+
+    def walled_in():
+        req = GetPlan.Request(start=stamped(*START), goal=stamped(*GOAL), tolerance=0.0)
+        return len(call_service(ros, GetPlan, "/patrol_planner/make_plan", req).plan.poses) == 0
+
+    ros.spin_until(walled_in, 20, "the node to plan on the walled room")
+    ros.wait_matched(ros.goal_pub, "/goal_pose")
+    i = len(ros.diagnostics)
+    robot.cmds.clear()
+    ros.goal_pub.publish(stamped(*GOAL))
+    ros.wait_code(i, "NO_VALID_PATH")
+    # The first recovery (a spin): the robot turns on the spot, having no plan to follow.
+    ros.spin_until(lambda: any(c.linear.x == 0.0 and abs(c.angular.z) > 0.1 for c in robot.cmds), 10, "a recovery's spin")
+    open_room = np.zeros((30, 60), dtype=np.int8)
+    open_room[20:30, 25:30] = 100
+    ros.map_pub.publish(grid_msg(open_room, (0.0, 0.0), 0.1))
+    log = ROOT / "target" / "patrol_planner_recovery_test.log"
+    ros.spin_until(lambda: "from /goal_pose reached after recoveries" in log.read_text(), 60, "the goal reached")
+    assert math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) <= 0.15, (robot.x, robot.y)
 
 
 def test_the_behavior_servers_actions(rig):

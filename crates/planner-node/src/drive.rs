@@ -60,6 +60,17 @@ impl DriveEnd {
             DriveEnd::Reached | DriveEnd::Stopped | DriveEnd::Superseded => false,
         }
     }
+
+    /// What went wrong, for the log: the drive's reason or the planner's.
+    fn reason(&self) -> String {
+        match self {
+            DriveEnd::NotReached(why) => why.clone(),
+            DriveEnd::NoPlan(f) => f.message.clone(),
+            DriveEnd::Reached => "reached".into(),
+            DriveEnd::Stopped => "stopped".into(),
+            DriveEnd::Superseded => "superseded".into(),
+        }
+    }
 }
 
 /// Where a drive stands, each tick, for an action's feedback.
@@ -141,11 +152,7 @@ where
             return end;
         }
         recoveries += 1;
-        let why = match &end {
-            DriveEnd::NotReached(why) => why.clone(),
-            DriveEnd::NoPlan(f) => f.message.clone(),
-            _ => unreachable!("only these may be helped"),
-        };
+        let why = end.reason();
         warn!("drive for goal {mine}: {why}; recovery {recoveries} of {retries}");
         // The recovery is reported at once, even when no plan was followed (no path found):
         // from the last tick, or from where the robot is, the goal's straight distance away.
@@ -194,19 +201,37 @@ where
     }
 }
 
-/// A `/goal_pose` goal (`mine`) whose drive made no progress (`why`), recovered as bt_navigator
-/// recovers the navigate_to_pose goal it makes of one: the robot (stopped) makes the first
-/// recovery behaviour, and the goal is driven on through `goals` (the poses it had not passed)
-/// as [`drive_to`] drives, with the recoveries left. Its navigation, handed to this drive first
-/// ([`Shared::hand_topic_goal_to_drive`]), ends with it. No action reports on it: the end is
-/// logged, and the robot stopped unless it arrived.
-pub async fn recover_topic_goal(
-    s: Arc<Shared>,
-    o: Outputs,
+/// Hands `/goal_pose` goal `mine`, whose plan failed or whose drive made no progress (`end`),
+/// to its recoveries ([`recover_topic_goal`]) when a recovery may help, as bt_navigator's tree
+/// recovers the navigate_to_pose goal it makes of a click: a failed ComputePathToPose and a
+/// stalled FollowPath alike. `goals` are the poses it has not passed (the goal last). Returns
+/// whether it did; if not, the goal's navigation is the caller's to end.
+pub fn hand_topic_goal_to_recoveries(
+    s: &Arc<Shared>,
+    o: &Outputs,
     goals: Vec<Pose2>,
     mine: u64,
-    why: String,
-) {
+    end: DriveEnd,
+) -> bool {
+    let retries = s.params.recovery.number_of_retries;
+    let helps = retries > 0 && !goals.is_empty() && end.recovery_may_help();
+    // Handed over here, before anything else can end its navigation.
+    if !(helps && s.hand_topic_goal_to_drive(mine)) {
+        return false;
+    }
+    let why = end.reason();
+    tokio::spawn(recover_topic_goal(s.clone(), o.clone(), goals, mine, why));
+    true
+}
+
+/// A `/goal_pose` goal (`mine`) whose plan failed or whose drive made no progress (`why`),
+/// recovered as bt_navigator recovers the navigate_to_pose goal it makes of one: the robot
+/// (stopped) makes the first recovery behaviour, and the goal is planned again and driven
+/// through `goals` (the poses it had not passed) as [`drive_to`] drives, with the recoveries
+/// left. Its navigation, handed to this drive first ([`Shared::hand_topic_goal_to_drive`]),
+/// ends with it. No action reports on it: the end is logged, and the robot stopped unless it
+/// arrived.
+async fn recover_topic_goal(s: Arc<Shared>, o: Outputs, goals: Vec<Pose2>, mine: u64, why: String) {
     let retries = s.params.recovery.number_of_retries;
     let stop = GoalStop::never();
     let mut turn = RoundRobin::new(&s);

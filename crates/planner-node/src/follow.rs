@@ -4,7 +4,7 @@
 //! the recoveries (drive.rs) when it makes none.
 
 use crate::convert::chassis_pose;
-use crate::drive::StallWatch;
+use crate::drive::{hand_topic_goal_to_recoveries, DriveEnd, StallWatch};
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use chassis::follower::Status as FollowStatus;
@@ -81,17 +81,8 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                     // poses it has not passed; the robot stops meanwhile.
                     let ahead = s.goals_ahead_of(goal).unwrap_or_default();
                     s.stop_following(goal);
-                    // Handed over here, before anything else can end its navigation.
-                    let recover = s.params.recovery.number_of_retries > 0 && !ahead.is_empty();
-                    if recover && s.hand_topic_goal_to_drive(goal) {
-                        tokio::spawn(crate::drive::recover_topic_goal(
-                            s.clone(),
-                            o.clone(),
-                            ahead,
-                            goal,
-                            why,
-                        ));
-                    } else {
+                    let end = DriveEnd::NotReached(why.clone());
+                    if !hand_topic_goal_to_recoveries(&s, &o, ahead, goal, end) {
                         warn!("goal {goal} from /goal_pose given up: {why}");
                         s.done_topic_goal(goal);
                     }

@@ -2,6 +2,7 @@
 //! with the current settings, run on tokio's blocking pool so the node keeps receiving meanwhile.
 //! A newer goal or `max_planning_time` interrupts a running plan.
 
+use crate::drive::{hand_topic_goal_to_recoveries, DriveEnd};
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalRequest, GoalSlot, Handover, MapState, Shared};
@@ -275,7 +276,7 @@ pub fn task_failure(e: tokio::task::JoinError) -> Failure {
 }
 
 /// Plans the newest goal in the slot, publishes the answer, and hands a successful plan to the
-/// follower (a failed one stops the robot). Goals that arrive faster than plans finish are
+/// follower (a failed one stops the robot, and is recovered where a recovery may help: drive.rs). Goals that arrive faster than plans finish are
 /// coalesced: only the newest is planned. A replan (a new map blocked the followed path)
 /// replaces the path only while it is still followed, and a failed one tells the goal's drive
 /// why ([`Shared::replan_failed`]).
@@ -353,14 +354,20 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                         ),
                     );
                 }
-                _ => {
+                (_, result) => {
                     s.stop_following(id);
+                    // bt_navigator's tree recovers a failed first plan as it recovers a stalled
+                    // drive (a spin, a wait, a back-up, then plan again), where one may help.
+                    if let Err(f) = result {
+                        let end = DriveEnd::NoPlan(f.clone());
+                        hand_topic_goal_to_recoveries(&s, &o, goals, id, end);
+                    }
                 }
             }
         }
         // A goal not driven now (failed, or only planned) is no longer navigating: a
         // `/goal_pose`'s navigation ends here, or on arrival (follow.rs), or with the drive
-        // that recovers it when it makes no progress (drive.rs).
+        // that recovers it when its plan fails or it makes no progress (drive.rs).
         if !s.is_following(id) {
             s.done_topic_goal(id);
         }
