@@ -15,7 +15,7 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.srv import GetPlan
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from conftest import call_service, initial_pose, stamped
+from conftest import ROOT, call_service, initial_pose, stamped
 from test_node import ORIGIN, RES, H, W, assert_collision_free, plan_to, use_test_map, world
 
 MAKE_PLAN = "/patrol_planner/make_plan"
@@ -242,3 +242,60 @@ def test_goals_in_odom_and_base_link_are_carried_into_the_map(ros):
         ros.spin_until(lambda: anchor_at(2.0, 0.0, lambda: ends_at(plan_in("odom", *target, start=world(1.0, 1.0)), target)),
                        30, "map -> odom back to the identity")
         ros.node.destroy_publisher(odom_pub)
+
+
+def test_load_map_switches_maps_as_map_server_does(ros, tmp_path):
+    """The node loads its own map (`map_yaml`), so it serves map_server's `map_server/load_map`
+    (nav2_simple_commander's changeMap()): another floor's map is loaded, latched on /map,
+    returned and planned on at once; a missing file, a YAML with bad fields, an unreadable image
+    and a URL that is not a path get map_server's result codes (1, 3, 2, 1), and the loaded map
+    stays. The bundled map is loaded back at the end, by a file:// URL."""
+    from nav2_msgs.srv import LoadMap
+
+    # Another floor: 6 m x 3 m at 0.1 m, origin (-1, -2), a block across the middle, open at
+    # the top (map_server's PGM: white free, black occupied; rows from the top).
+    img = np.full((30, 60), 254, dtype=np.uint8)
+    img[10:30, 28:32] = 0
+    (tmp_path / "floor2.pgm").write_bytes(b"P5\n60 30\n255\n" + img.tobytes())
+    yaml = "image: floor2.pgm\nresolution: 0.1\norigin: [-1.0, -2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    (tmp_path / "floor2.yaml").write_text(yaml)
+    (tmp_path / "bad_fields.yaml").write_text(yaml.replace("resolution: 0.1", "resolution: -0.1"))
+    (tmp_path / "bad_image.pgm").write_bytes(b"P5\n60 30\n255\n" + img.tobytes()[:100])
+    (tmp_path / "bad_image.yaml").write_text(yaml.replace("floor2.pgm", "bad_image.pgm"))
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    maps = []
+    sub = ros.node.create_subscription(OccupancyGrid, "/map", maps.append, latched)
+
+    def load(url):
+        return call_service(ros, LoadMap, "/map_server/load_map", LoadMap.Request(map_url=url), timeout=30)
+
+    def across():
+        # From the left of the block to its right: over its top, inside the new map.
+        return get_plan(ros, (-0.5, -1.5), (4.5, -1.5))
+
+    try:
+        r = load(str(tmp_path / "floor2.yaml"))
+        assert r.result == LoadMap.Response.RESULT_SUCCESS
+        info = r.map.info
+        assert (info.width, info.height) == (60, 30) and abs(info.resolution - 0.1) < 1e-6, info
+        assert (info.origin.position.x, info.origin.position.y) == (-1.0, -2.0)
+        assert r.map.header.frame_id == "map" and list(r.map.data).count(100) == 20 * 4
+        ros.spin_until(lambda: any(m.info.width == 60 and m.info.height == 30 for m in maps), 10, "the loaded map on /map")
+        path = across()
+        assert path.poses, "no plan on the loaded map"
+        assert max(p.pose.position.y for p in path.poses) > -2.0 + 2.0, "the plan went through the block"
+        assert all(-1.0 <= p.pose.position.x <= 5.0 and -2.0 <= p.pose.position.y <= 1.0 for p in path.poses)
+
+        for url, code in [
+            (str(tmp_path / "absent.yaml"), LoadMap.Response.RESULT_MAP_DOES_NOT_EXIST),
+            (str(tmp_path / "bad_fields.yaml"), LoadMap.Response.RESULT_INVALID_MAP_METADATA),
+            (str(tmp_path / "bad_image.yaml"), LoadMap.Response.RESULT_INVALID_MAP_DATA),
+            ("package://patrol/maps/floor2.yaml", LoadMap.Response.RESULT_MAP_DOES_NOT_EXIST),
+        ]:
+            assert load(url).result == code, url
+            assert across().poses, f"the loaded map did not stay after {url}"
+    finally:
+        r = load("file://" + str(ROOT / "config" / "maps" / "datacenter_100.yaml"))
+        ros.node.destroy_subscription(sub)
+    assert r.result == LoadMap.Response.RESULT_SUCCESS
+    assert (r.map.info.width, r.map.info.height) == (100, 100)

@@ -15,8 +15,11 @@ use patrol_msgs::geometry_msgs::{
     PoseStamped, PoseWithCovarianceStamped, Quaternion, Twist, TwistStamped,
 };
 use patrol_msgs::lifecycle_msgs::ChangeStateRequest;
+use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
-    ComputePathThroughPosesGoal, ComputePathToPoseGoal, IsPathValidRequest,
+    BackUpGoal, ComputePathThroughPosesGoal, ComputePathToPoseGoal, DriveOnHeadingGoal,
+    FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest, LoadMapRequest,
+    NavigateThroughPosesGoal, NavigateToPoseGoal, SpinGoal, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -67,7 +70,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 12 {
+    match selector % 22 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -98,6 +101,32 @@ fuzz_target!(|data: &[u8]| {
         10 => {
             if let Some(req) = round_trip::<IsPathValidRequest>(payload) {
                 assert!(req.path.poses.len() <= payload.len());
+            }
+        }
+        11 => {
+            if let Some(u) = round_trip::<OccupancyGridUpdate>(payload) {
+                assert!(u.data.len() <= payload.len());
+            }
+        }
+        12 => drop(round_trip::<NavigateToPoseGoal>(payload)),
+        13 => {
+            if let Some(goal) = round_trip::<NavigateThroughPosesGoal>(payload) {
+                assert!(goal.poses.len() <= payload.len());
+            }
+        }
+        14 => {
+            if let Some(goal) = round_trip::<FollowWaypointsGoal>(payload) {
+                assert!(goal.poses.len() <= payload.len());
+            }
+        }
+        15 => drop(round_trip::<SpinGoal>(payload)),
+        16 => drop(round_trip::<BackUpGoal>(payload)),
+        17 => drop(round_trip::<DriveOnHeadingGoal>(payload)),
+        18 => drop(round_trip::<WaitGoal>(payload)),
+        19 => drop(round_trip::<GetCostmapRequest>(payload)),
+        20 => {
+            if let Some(req) = round_trip::<LoadMapRequest>(payload) {
+                assert!(req.map_url.len() <= payload.len());
             }
         }
         _ => drop(round_trip::<ChangeStateRequest>(payload)),

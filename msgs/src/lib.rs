@@ -452,6 +452,25 @@ pub mod nav2_msgs {
     pub struct GetCostmapResponse {
         pub map: Costmap,
     }
+    /// nav2_msgs/srv/LoadMap request (map_server's `load_map`): the map's YAML, a path
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct LoadMapRequest {
+        pub map_url: String,
+    }
+    /// nav2_msgs/srv/LoadMap response: the map, valid only when `result` is
+    /// [`LoadMapResponse::RESULT_SUCCESS`]
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct LoadMapResponse {
+        pub map: super::nav_msgs::OccupancyGrid,
+        pub result: u8,
+    }
+    impl LoadMapResponse {
+        pub const RESULT_SUCCESS: u8 = 0;
+        pub const RESULT_MAP_DOES_NOT_EXIST: u8 = 1;
+        pub const RESULT_INVALID_MAP_DATA: u8 = 2;
+        pub const RESULT_INVALID_MAP_METADATA: u8 = 3;
+        pub const RESULT_UNDEFINED_FAILURE: u8 = 255;
+    }
     /// nav2_msgs/action/Spin goal (Jazzy)
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct SpinGoal {
@@ -512,6 +531,8 @@ pub mod nav2_msgs {
         Costmap,
         GetCostmapRequest,
         GetCostmapResponse,
+        LoadMapRequest,
+        LoadMapResponse,
         SpinGoal,
         BehaviorResult,
         SpinFeedback,

@@ -605,6 +605,31 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         g::GET_COSTMAP_RESPONSE,
     );
     check(
+        "LoadMap request",
+        LoadMapRequest {
+            map_url: "/maps/floor2.yaml".into(),
+        },
+        g::LOAD_MAP_REQUEST,
+    );
+    check(
+        "LoadMap response",
+        LoadMapResponse {
+            map: patrol_msgs::nav_msgs::OccupancyGrid {
+                header: header(),
+                info: patrol_msgs::nav_msgs::MapMetaData {
+                    map_load_time: t(0, 0),
+                    resolution: 0.05,
+                    width: 3,
+                    height: 1,
+                    origin: pose_at(1.5, -2.25),
+                },
+                data: vec![0, 100, -1],
+            },
+            result: LoadMapResponse::RESULT_INVALID_MAP_DATA,
+        },
+        g::LOAD_MAP_RESPONSE,
+    );
+    check(
         "Wait result",
         BehaviorResult {
             total_elapsed_time: d(5, 70),

@@ -17,7 +17,7 @@ from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose, DriveOnHeading,
                               FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
-from nav2_msgs.srv import GetCostmap, IsPathValid
+from nav2_msgs.srv import GetCostmap, IsPathValid, LoadMap
 from nav2_msgs.msg import Costmap, CostmapMetaData
 
 
@@ -158,6 +158,12 @@ def messages():
     f = Wait.Feedback()
     f.time_left.sec, f.time_left.nanosec = 3, 80
     out["WAIT_FEEDBACK"] = f
+    out["LOAD_MAP_REQUEST"] = LoadMap.Request(map_url="/maps/floor2.yaml")
+    grid = OccupancyGrid(header=header())
+    grid.info.resolution, grid.info.width, grid.info.height = 0.05, 3, 1
+    grid.info.origin = pose()
+    grid.data = [0, 100, -1]
+    out["LOAD_MAP_RESPONSE"] = LoadMap.Response(map=grid, result=LoadMap.Response.RESULT_INVALID_MAP_DATA)
     return out
 
 

@@ -124,7 +124,12 @@ pub async fn receive_maps(
 /// `is_path_valid`'s rule, once per grid ([`Shared::checked_grid`]); if the map blocks it, its
 /// goal goes back into the goal slot, with the via poses not yet passed
 /// (`navigate_through_poses`), and is planned again from where the robot is.
-fn replan_if_blocked(s: &Shared, slot: &watch::Sender<GoalSlot>, map: &Arc<MapState>, why: &str) {
+pub fn replan_if_blocked(
+    s: &Shared,
+    slot: &watch::Sender<GoalSlot>,
+    map: &Arc<MapState>,
+    why: &str,
+) {
     {
         let mut checked = s.checked_grid.lock().expect("lock");
         let this = Arc::downgrade(map);

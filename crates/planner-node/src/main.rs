@@ -15,6 +15,7 @@ mod inputs;
 mod lifecycle;
 mod lifecycle_services;
 mod localization;
+mod map_server;
 mod navigate;
 mod node;
 mod outputs;

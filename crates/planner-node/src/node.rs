@@ -15,6 +15,7 @@
 //! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
 //! | out | `/patrol_planner/pareto` | visualization_msgs/MarkerArray | reliable, volatile, depth 1 |
 //! | service | `/patrol_planner/make_plan` | nav_msgs/srv/GetPlan | reliable |
+//! | service | `/map_server/load_map` | nav2_msgs/srv/LoadMap | reliable (only with `map_yaml`: map_server.rs) |
 //! | out | `/rosout` | rcl_interfaces/Log | ros2-client's (reliable, transient local, depth 1) |
 //!
 //! A new goal cancels a plan still running for an older one (its interrupt callback sees the
@@ -23,13 +24,13 @@
 //! `/diagnostics` status with the reason.
 
 use crate::actions;
-use crate::convert;
 use crate::follow;
 use crate::inputs;
 use crate::lifecycle_services;
+use crate::map_server;
 use crate::outputs::{CmdVel, Outputs};
 use crate::params::{unused_on_costmap, validate_parameter, with_setting, SETTINGS};
-use crate::planning::{self, install_map};
+use crate::planning;
 use crate::state::{GoalSlot, Shared};
 use anyhow::Result;
 use chassis::Twist2;
@@ -45,9 +46,10 @@ use patrol_msgs::nav2_msgs::{
     BackUpFeedback, BackUpGoal, BehaviorResult, ComputePathResult, ComputePathThroughPosesGoal,
     ComputePathToPoseGoal, DriveOnHeadingGoal, EmptyFeedback, FollowWaypointsFeedback,
     FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest, GetCostmapResponse,
-    IsPathValidRequest, IsPathValidResponse, NavigateThroughPosesFeedback,
-    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
-    NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
+    IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
+    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
+    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal,
+    WaitFeedback, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -532,28 +534,28 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         tasks.spawn(follow::follow(shared.clone(), out.clone()));
     }
 
-    // The bundled map, loaded by the node itself and latched on /map.
+    let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
+    // The bundled map, loaded by the node itself and latched on /map; with it, the node is the
+    // map server, and map_server's load_map switches maps (map_server.rs).
     if !params.map_yaml.is_empty() {
-        let path = params.map_yaml.clone();
-        match tokio::task::spawn_blocking(move || {
-            planner_io::load_map_server(std::path::Path::new(&path))
-        })
-        .await?
-        {
-            Ok(map) => {
-                let msg = convert::msg_from_grid(&map, &params.global_frame, ros_edge::now());
-                if params.costmap_topic.is_empty() {
-                    install_map(&shared, map, "map_yaml", log::Level::Info).await;
-                }
-                if let Err(e) = map_pub.async_publish(msg).await {
-                    error!("publishing the map on /map: {e:?}");
-                }
-            }
-            Err(e) => error!("map_yaml: {e}; waiting for /map instead"),
+        if let Err(refused) = map_server::load(&shared, &map_pub, &params.map_yaml, None).await {
+            error!("map_yaml: {}; waiting for /map instead", refused.reason);
         }
+        let load_map = node.create_server::<LoadMapRequest, LoadMapResponse>(
+            ServiceMapping::Enhanced,
+            &naming.name("map_server/load_map")?,
+            &ServiceTypeName::new("nav2_msgs", "LoadMap"),
+            ros_edge::reliable(10, Durability::Volatile),
+            ros_edge::reliable(10, Durability::Volatile),
+        )?;
+        tasks.spawn(map_server::serve_load_map(
+            shared.clone(),
+            map_pub.clone(),
+            load_map,
+            goal_tx.clone(),
+        ));
     }
 
-    let (goal_tx, goal_rx) = tokio::sync::watch::channel::<GoalSlot>(None);
     // The planning grid comes from the costmap topic when one is set, else from /map.
     // Our own latched map_yaml sample comes back on /map; it is skipped there (already installed).
     let own_map = (!params.map_yaml.is_empty()).then(|| map_pub.gid());

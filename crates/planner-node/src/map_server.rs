@@ -1,0 +1,211 @@
+//! The node as its own map server, when it loads its map itself (`map_yaml`): the map latched on
+//! `/map`, and map_server's `map_server/load_map` (nav2_msgs/srv/LoadMap), which
+//! nav2_simple_commander's `changeMap()` calls to switch maps (another floor of a substation,
+//! another equipment room) without restarting anything.
+//!
+//! A map is read, made the planning grid, and only then published and answered: a file that
+//! cannot be read, or a map the node cannot plan on, is refused with map_server's result code
+//! and the reason in the log, and the current map stays, on `/map` and for planning. A goal
+//! being driven is checked against the new map as against any new `/map` (inputs.rs): planned
+//! again if the map blocks the rest of its path.
+//!
+//! With a Nav2 stack's map_server running, `map_yaml` is empty and none of this is served, so
+//! that only one node answers `load_map`.
+
+use crate::convert;
+use crate::inputs::replan_if_blocked;
+use crate::planning::install_map;
+use crate::state::{GoalSlot, Shared};
+use log::{info, warn};
+use patrol_msgs::nav2_msgs::{LoadMapRequest, LoadMapResponse};
+use patrol_msgs::nav_msgs::OccupancyGrid;
+use planner_io::LoadError;
+use ros2_client::{Publisher, Server};
+use std::path::Path;
+use std::sync::Arc;
+use tokio::sync::watch;
+
+/// Why a map was not loaded: map_server's result code (LoadMap's `RESULT_*`) and the reason.
+#[derive(Debug)]
+pub struct Refused {
+    pub result: u8,
+    pub reason: String,
+}
+
+/// map_server's result code for a map file that could not be loaded, as its map_io sorts them:
+/// the YAML not there (or not a readable regular file), its fields wrong, or its image.
+fn result_code(e: &LoadError) -> u8 {
+    match e {
+        LoadError::Io { .. } => LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST,
+        LoadError::Map { .. } => LoadMapResponse::RESULT_INVALID_MAP_METADATA,
+        LoadError::MapImage { .. } => LoadMapResponse::RESULT_INVALID_MAP_DATA,
+        LoadError::Config { .. } => LoadMapResponse::RESULT_UNDEFINED_FAILURE,
+    }
+}
+
+/// The file a LoadMap `map_url` names: a path, as map_server takes it, or a `file://` URL (the
+/// form LoadMap's definition shows). `package://` URLs are not resolved (map_server does not
+/// either): refused as a map that does not exist, with the reason.
+fn file_of(map_url: &str) -> Result<&str, Refused> {
+    let path = map_url.strip_prefix("file://").unwrap_or(map_url);
+    if path.is_empty() || path.contains("://") {
+        return Err(Refused {
+            result: LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST,
+            reason: format!("`{map_url}` is not a map file: give a path to a map YAML"),
+        });
+    }
+    Ok(path)
+}
+
+/// Loads the map_server map at `path` (off the async threads), makes it the planning grid
+/// (unless the node plans on a costmap topic) and latches it on `/map`; returns the message.
+/// Refused, nothing changes.
+pub async fn load(
+    s: &Arc<Shared>,
+    map_pub: &Publisher<OccupancyGrid>,
+    path: &str,
+    slot: Option<&watch::Sender<GoalSlot>>,
+) -> Result<OccupancyGrid, Refused> {
+    let file = path.to_owned();
+    let loaded =
+        tokio::task::spawn_blocking(move || planner_io::load_map_server(Path::new(&file))).await;
+    let map = match loaded {
+        Ok(Ok(map)) => map,
+        Ok(Err(e)) => {
+            return Err(Refused {
+                result: result_code(&e),
+                reason: e.to_string(),
+            })
+        }
+        Err(e) => {
+            return Err(Refused {
+                result: LoadMapResponse::RESULT_UNDEFINED_FAILURE,
+                reason: format!("the map task failed: {e}"),
+            })
+        }
+    };
+    let msg = convert::msg_from_grid(&map, &s.params.global_frame, ros_edge::now());
+    // With a costmap topic the costmap is the planning grid (inputs.rs); the map is only served.
+    if s.params.costmap_topic.is_empty() {
+        let Some(state) = install_map(s, map, path, log::Level::Info).await else {
+            return Err(Refused {
+                result: LoadMapResponse::RESULT_INVALID_MAP_DATA,
+                reason: "the node cannot plan on it (the log says why)".into(),
+            });
+        };
+        if let Some(slot) = slot {
+            replan_if_blocked(s, slot, &state, "the loaded map");
+        }
+    }
+    if let Err(e) = map_pub.async_publish(msg.clone()).await {
+        warn!("publishing the map on /map: {e:?}");
+    }
+    Ok(msg)
+}
+
+/// `map_server/load_map` (nav2_msgs/srv/LoadMap), as map_server serves it: the map at
+/// `map_url` loaded, planned on and latched on `/map`, and returned with `RESULT_SUCCESS`; a
+/// map that cannot be loaded gets its result code (the reason in the log) and the current map
+/// stays. While the node is not active, `RESULT_UNDEFINED_FAILURE`, as map_server answers.
+pub async fn serve_load_map(
+    s: Arc<Shared>,
+    map_pub: Arc<Publisher<OccupancyGrid>>,
+    server: Server<LoadMapRequest, LoadMapResponse>,
+    slot: watch::Sender<GoalSlot>,
+) {
+    loop {
+        let Ok((id, request)) = server.async_receive_request().await else {
+            continue;
+        };
+        let answer = match (s.refusal(), file_of(&request.map_url)) {
+            (Some(f), _) => Err(Refused {
+                result: LoadMapResponse::RESULT_UNDEFINED_FAILURE,
+                reason: f.message,
+            }),
+            (None, Err(refused)) => Err(refused),
+            (None, Ok(path)) => load(&s, &map_pub, path, Some(&slot)).await,
+        };
+        let response = match answer {
+            Ok(map) => {
+                info!("load_map: {} now the map", request.map_url);
+                LoadMapResponse {
+                    map,
+                    result: LoadMapResponse::RESULT_SUCCESS,
+                }
+            }
+            Err(refused) => {
+                warn!(
+                    "load_map `{}` refused ({}), keeping the current map: {}",
+                    request.map_url, refused.result, refused.reason
+                );
+                LoadMapResponse {
+                    map: OccupancyGrid::default(),
+                    result: refused.result,
+                }
+            }
+        };
+        if let Err(e) = server.async_send_response(id, response).await {
+            warn!("load_map response: {e:?}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn map_urls_are_paths_or_file_urls() {
+        assert_eq!(file_of("/maps/floor2.yaml").unwrap(), "/maps/floor2.yaml");
+        assert_eq!(
+            file_of("file:///maps/floor2.yaml").unwrap(),
+            "/maps/floor2.yaml"
+        );
+        assert_eq!(file_of("maps/floor2.yaml").unwrap(), "maps/floor2.yaml");
+        for bad in [
+            "",
+            "file://",
+            "package://patrol/maps/floor2.yaml",
+            "http://x/m.yaml",
+        ] {
+            let refused = file_of(bad).unwrap_err();
+            assert_eq!(
+                refused.result,
+                LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST,
+                "{bad}"
+            );
+        }
+    }
+
+    #[test]
+    fn load_errors_get_map_servers_result_codes() {
+        let dir = std::env::temp_dir().join(format!("patrol_load_map_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let code = |yaml: &str| {
+            let path = dir.join("m.yaml");
+            std::fs::write(&path, yaml).unwrap();
+            result_code(&planner_io::load_map_server(&path).unwrap_err())
+        };
+        let missing = planner_io::load_map_server(&dir.join("absent.yaml")).unwrap_err();
+        assert_eq!(
+            result_code(&missing),
+            LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST
+        );
+        assert_eq!(
+            code("image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\n"),
+            LoadMapResponse::RESULT_INVALID_MAP_METADATA
+        );
+        std::fs::write(dir.join("m.pgm"), b"P5\n2 2\n255\n\x00").unwrap();
+        assert_eq!(
+            code("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"),
+            LoadMapResponse::RESULT_INVALID_MAP_DATA,
+            "a truncated image"
+        );
+        assert_eq!(
+            code("image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"),
+            LoadMapResponse::RESULT_INVALID_MAP_DATA,
+            "an image that is not there"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
