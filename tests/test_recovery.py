@@ -16,7 +16,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - A /goal_pose whose robot makes no progress is recovered the same way (bt_navigator makes a
   navigate_to_pose goal of it), then given up: the robot is told to stop.
 - A /goal_pose with no path at first is recovered too (a failed plan, as bt_navigator's tree
-  recovers ComputePathToPose), and reached once a new map opens the way.
+  recovers ComputePathToPose), and reached once a new map opens the way; so is one whose path a
+  new map blocks and whose replan fails.
 - The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
   room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
@@ -234,6 +235,21 @@ def test_a_goal_pose_with_no_path_yet_is_recovered_and_planned_again(rig):
     log = ROOT / "target" / "patrol_planner_recovery_test.log"
     ros.spin_until(lambda: "from /goal_pose reached after recoveries" in log.read_text(), 60, "the goal reached")
     assert math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) <= 0.15, (robot.x, robot.y)
+
+    # A click being driven whose path a new map blocks, and whose replan fails, is recovered
+    # the same way (before, it was dropped: the robot stopped for good).
+    robot.cmds.clear()
+    i = len(ros.diagnostics)
+    ros.goal_pub.publish(stamped(*START))
+    ros.spin_until(lambda: any(c.angular.z != 0.0 or c.linear.x != 0.0 for c in robot.cmds), 10, "the drive back")
+    ros.map_pub.publish(grid_msg(walled, (0.0, 0.0), 0.1))
+    ros.wait_code(i, "NO_VALID_PATH")
+    ros.spin_until(lambda: "a new map blocked the path, and replanning failed" in log.read_text(), 10, "the failed replan")
+    ros.map_pub.publish(grid_msg(open_room, (0.0, 0.0), 0.1))
+    ros.spin_until(lambda: log.read_text().count("from /goal_pose reached after recoveries") == 2, 60, "START reached")
+    assert math.hypot(robot.x - START[0], robot.y - START[1]) <= 0.15, (robot.x, robot.y)
+    text = log.read_text()
+    assert "from /goal_pose: a new map blocked the path, and replanning failed" in text, text[-2000:]
 
 
 def test_the_behavior_servers_actions(rig):

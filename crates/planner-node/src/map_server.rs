@@ -32,8 +32,10 @@ pub struct Refused {
     pub reason: String,
 }
 
-/// map_server's result code for a map file that could not be loaded, as its map_io sorts them:
-/// the YAML not there (or not a readable regular file), its fields wrong, or its image.
+/// The LoadMap result code for a map file that could not be loaded, by LoadMap's definitions:
+/// the YAML not there (or not a readable regular file: 1), its fields wrong (3), its image (2).
+/// map_server itself answers 3 for a YAML that is not there too (its YAML parser's exception):
+/// any code but 0 is a failure to nav2_simple_commander's changeMap(), and 1 says which.
 fn result_code(e: &LoadError) -> u8 {
     match e {
         LoadError::Io { .. } => LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST,
@@ -43,10 +45,11 @@ fn result_code(e: &LoadError) -> u8 {
     }
 }
 
-/// The file a LoadMap `map_url` names: a path, as map_server takes it, or a `file://` URL (the
-/// form LoadMap's definition shows). `package://` URLs are not resolved (map_server does not
-/// either): refused as a map that does not exist, with the reason.
-fn file_of(map_url: &str) -> Result<&str, Refused> {
+/// The file a LoadMap `map_url` names: a path, as map_server takes it (a leading `~/` is the
+/// `home` directory, as map_server expands it), or a `file://` URL (the form LoadMap's
+/// definition shows). `package://` URLs are not resolved (map_server does not either): refused
+/// as a map that does not exist, with the reason.
+fn file_of(map_url: &str, home: Option<&str>) -> Result<String, Refused> {
     let path = map_url.strip_prefix("file://").unwrap_or(map_url);
     if path.is_empty() || path.contains("://") {
         return Err(Refused {
@@ -54,17 +57,30 @@ fn file_of(map_url: &str) -> Result<&str, Refused> {
             reason: format!("`{map_url}` is not a map file: give a path to a map YAML"),
         });
     }
-    Ok(path)
+    Ok(match (path.strip_prefix("~/"), home) {
+        (Some(rest), Some(home)) => format!("{}/{rest}", home.trim_end_matches('/')),
+        _ => path.to_owned(),
+    })
+}
+
+/// Who asks for a map.
+pub enum Asked<'a> {
+    /// The node, starting, for `map_yaml`: a map it can read is latched on `/map` even if it
+    /// cannot plan on it (AMCL and RViz still need it; the log says why planning waits).
+    Startup,
+    /// A `load_map` request: a map the node cannot plan on is refused, and the current map
+    /// stays, on `/map` too. The goal slot takes a replan the new map makes necessary.
+    Request(&'a watch::Sender<GoalSlot>),
 }
 
 /// Loads the map_server map at `path` (off the async threads), makes it the planning grid
 /// (unless the node plans on a costmap topic) and latches it on `/map`; returns the message.
-/// Refused, nothing changes.
+/// Refused, nothing changes (but see [`Asked::Startup`]).
 pub async fn load(
     s: &Arc<Shared>,
     map_pub: &Publisher<OccupancyGrid>,
     path: &str,
-    slot: Option<&watch::Sender<GoalSlot>>,
+    asked: Asked<'_>,
 ) -> Result<OccupancyGrid, Refused> {
     let file = path.to_owned();
     let loaded =
@@ -87,14 +103,18 @@ pub async fn load(
     let msg = convert::msg_from_grid(&map, &s.params.global_frame, ros_edge::now());
     // With a costmap topic the costmap is the planning grid (inputs.rs); the map is only served.
     if s.params.costmap_topic.is_empty() {
-        let Some(state) = install_map(s, map, path, log::Level::Info).await else {
-            return Err(Refused {
-                result: LoadMapResponse::RESULT_INVALID_MAP_DATA,
-                reason: "the node cannot plan on it (the log says why)".into(),
-            });
-        };
-        if let Some(slot) = slot {
-            replan_if_blocked(s, slot, &state, "the loaded map");
+        match (install_map(s, map, path, log::Level::Info).await, asked) {
+            (Some(state), Asked::Request(slot)) => {
+                replan_if_blocked(s, slot, &state, "the loaded map")
+            }
+            (Some(_), Asked::Startup) => {}
+            (None, Asked::Request(_)) => {
+                return Err(Refused {
+                    result: LoadMapResponse::RESULT_INVALID_MAP_DATA,
+                    reason: "the node cannot plan on it (the log says why)".into(),
+                })
+            }
+            (None, Asked::Startup) => warn!("{path}: served on /map, but not planned on"),
         }
     }
     if let Err(e) = map_pub.async_publish(msg.clone()).await {
@@ -117,13 +137,14 @@ pub async fn serve_load_map(
         let Ok((id, request)) = server.async_receive_request().await else {
             continue;
         };
-        let answer = match (s.refusal(), file_of(&request.map_url)) {
+        let home = std::env::var("HOME").ok();
+        let answer = match (s.refusal(), file_of(&request.map_url, home.as_deref())) {
             (Some(f), _) => Err(Refused {
                 result: LoadMapResponse::RESULT_UNDEFINED_FAILURE,
                 reason: f.message,
             }),
             (None, Err(refused)) => Err(refused),
-            (None, Ok(path)) => load(&s, &map_pub, path, Some(&slot)).await,
+            (None, Ok(path)) => load(&s, &map_pub, &path, Asked::Request(&slot)).await,
         };
         let response = match answer {
             Ok(map) => {
@@ -156,19 +177,25 @@ mod tests {
 
     #[test]
     fn map_urls_are_paths_or_file_urls() {
-        assert_eq!(file_of("/maps/floor2.yaml").unwrap(), "/maps/floor2.yaml");
+        let home = Some("/home/patrol/");
+        assert_eq!(file_of("/maps/f.yaml", home).unwrap(), "/maps/f.yaml");
         assert_eq!(
-            file_of("file:///maps/floor2.yaml").unwrap(),
-            "/maps/floor2.yaml"
+            file_of("file:///maps/f.yaml", home).unwrap(),
+            "/maps/f.yaml"
         );
-        assert_eq!(file_of("maps/floor2.yaml").unwrap(), "maps/floor2.yaml");
+        assert_eq!(file_of("maps/f.yaml", home).unwrap(), "maps/f.yaml");
+        assert_eq!(
+            file_of("~/maps/f.yaml", home).unwrap(),
+            "/home/patrol/maps/f.yaml"
+        );
+        assert_eq!(file_of("~/maps/f.yaml", None).unwrap(), "~/maps/f.yaml");
         for bad in [
             "",
             "file://",
-            "package://patrol/maps/floor2.yaml",
+            "package://patrol/maps/f.yaml",
             "http://x/m.yaml",
         ] {
-            let refused = file_of(bad).unwrap_err();
+            let refused = file_of(bad, home).unwrap_err();
             assert_eq!(
                 refused.result,
                 LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST,

@@ -538,7 +538,14 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // The bundled map, loaded by the node itself and latched on /map; with it, the node is the
     // map server, and map_server's load_map switches maps (map_server.rs).
     if !params.map_yaml.is_empty() {
-        if let Err(refused) = map_server::load(&shared, &map_pub, &params.map_yaml, None).await {
+        if let Err(refused) = map_server::load(
+            &shared,
+            &map_pub,
+            &params.map_yaml,
+            map_server::Asked::Startup,
+        )
+        .await
+        {
             error!("map_yaml: {}; waiting for /map instead", refused.reason);
         }
         let load_map = node.create_server::<LoadMapRequest, LoadMapResponse>(

@@ -342,7 +342,7 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                             Failure::new(ResultCode::Unknown, "the plan could not be published")
                         }
                     };
-                    s.replan_failed(
+                    let stopped = s.replan_failed(
                         id,
                         replaces.as_ref().expect("a replan"),
                         Failure::new(
@@ -353,6 +353,14 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
                             ),
                         ),
                     );
+                    // An action's drive reads the reason and recovers; a /goal_pose has no
+                    // drive yet, so it is handed to its recoveries here, as after a failed
+                    // first plan (bt_navigator's tree recovers a failed replan the same way).
+                    if stopped && s.topic_goal() == Some(id) {
+                        if let Some(f) = s.take_failed_replan(id) {
+                            hand_topic_goal_to_recoveries(&s, &o, goals, id, DriveEnd::NoPlan(f));
+                        }
+                    }
                 }
                 (_, result) => {
                     s.stop_following(id);
