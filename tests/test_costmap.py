@@ -186,3 +186,65 @@ def test_the_safety_weight_set_at_run_time_moves_the_next_plan_off_the_walls(tmp
     finally:
         ros.close()
         stop_binary(proc)
+
+
+def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
+    """Nav2's keepout filter, for the node's own costmap (`keepout_mask_topic`): a mask (as a
+    filter mask server latches it, of its own resolution and origin) keeps the plans out of its
+    zone at once, and the published costmap shows it lethal; a mask in another frame is refused
+    on /diagnostics and the last good one stays; an empty mask frees the way again."""
+    mask_topic = "/keepout_filter_mask"
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
+        f"    keepout_mask_topic: {mask_topic}\n"
+    )
+    domain = domain_id(34)
+    proc = start_node(domain, params, "keepout_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        costmaps = []
+        ros.node.create_subscription(OccupancyGrid, "/patrol_planner/costmap", costmaps.append, LATCHED)
+        mask_pub = ros.node.create_publisher(OccupancyGrid, mask_topic, LATCHED)
+        ros.wait_matched(ros.map_pub, "/map")
+        ros.map_pub.publish(grid_msg(np.zeros((60, 100), dtype=np.int8), origin=(0.0, 0.0), res=RES))
+
+        def plan():
+            req = GetPlan.Request(start=stamped(1.0, 2.0), goal=stamped(9.0, 2.0), tolerance=0.0)
+            return call_service(ros, GetPlan, "/patrol_planner/make_plan", req).plan.poses
+
+        def through_zone(poses):
+            return [p for p in poses if 4.0 <= p.pose.position.x <= 6.0 and p.pose.position.y <= 4.5]
+
+        ros.spin_until(lambda: plan(), 30, "a plan on the open map")
+        assert through_zone(plan()), "on the open map the plan runs straight through"
+        # The zone: x 4..6 m, y 0..4.6 m, on a 0.2 m mask from (3, 0); the rest of the mask 0.
+        zone = np.zeros((30, 25), dtype=np.int8)
+        zone[0:23, 5:15] = 100
+        ros.wait_matched(mask_pub, mask_topic)
+        mask_pub.publish(grid_msg(zone, origin=(3.0, 0.0), res=0.2))
+        poses = ros.spin_until(lambda: (lambda p: p if p and not through_zone(p) else None)(plan()), 20,
+                               "a plan round the keepout zone")
+        assert max(p.pose.position.y for p in poses) > 4.6, "round the zone's top"
+
+        def lethal_in_costmap():
+            if not costmaps:
+                return False
+            c = np.array(costmaps[-1].data, dtype=np.int8).reshape(60, 100)
+            return (c[0:46, 41:59] == 100).all() and (c[50:60, :] == 0).all()
+
+        ros.spin_until(lethal_in_costmap, 10, "the zone lethal on /patrol_planner/costmap")
+
+        i = len(ros.diagnostics)
+        other = grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2)
+        other.header.frame_id = "odom"
+        mask_pub.publish(other)
+        code, why, _ = ros.wait_code(i, "INVALID_INPUT")
+        assert "keepout mask" in why and "`odom`" in why, why
+        assert plan() and not through_zone(plan()), "the last good mask stays"
+
+        mask_pub.publish(grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2))
+        ros.spin_until(lambda: through_zone(plan()), 20, "the way free again under an empty mask")
+    finally:
+        ros.close()
+        stop_binary(proc)

@@ -53,7 +53,7 @@ impl Workspace {
     /// The planning grid of `map`, downsampled by `costmap.downsampling_factor` after it is
     /// inflated (then `map` is the downsampled map, cell for cell the grid's).
     pub fn new(map: GridMap, config: PlannerConfig) -> Result<Self> {
-        let (coarse, grid) = match planning_grid(&map, &config.costmap, false)? {
+        let (coarse, grid) = match planning_grid(&map, &config.costmap, false, None)? {
             (Cow::Owned(coarse), grid) => (Some(coarse), grid),
             (Cow::Borrowed(_), grid) => (None, grid),
         };

@@ -91,6 +91,13 @@ pub struct NodeParams {
     /// then leaves alone; costmap_2d's partial updates on `<topic>_updates` are written into it.
     /// Empty (default): plan on `map`.
     pub costmap_topic: String,
+    /// A keepout mask to lay over the node's own costmap, as Nav2's keepout filter lays its
+    /// mask over costmap_2d's (nav_msgs/OccupancyGrid in the global frame, latched, e.g. the
+    /// `/keepout_filter_mask` a filter mask server publishes): occupancy 100 keeps the robot's
+    /// centre out, lesser values are costs (0..100 scaled to 0..254). Each new mask is laid over
+    /// the current grid at once. Not with `costmap_topic`, whose costmap has its own filters.
+    /// Empty (default): none.
+    pub keepout_mask_topic: String,
     /// follow_waypoints: put the waypoints in the fastest order before driving them (the route
     /// planner's), instead of the order given.
     pub order_waypoints: bool,
@@ -216,6 +223,7 @@ impl Default for NodeParams {
             expected_planner_frequency: 1.0,
             bond_heartbeat_period: 0.1,
             costmap_topic: String::new(),
+            keepout_mask_topic: String::new(),
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
             stop_on_failure: false,
@@ -285,6 +293,12 @@ impl NodeParams {
         }
         if !within(self.behavior_server.simulate_ahead_time, 0.0, 10.0) {
             return Err("behavior_server: simulate_ahead_time within 0..=10 s".into());
+        }
+        if !self.keepout_mask_topic.is_empty() && !self.costmap_topic.is_empty() {
+            return Err(format!(
+                "keepout_mask_topic (`{}`) lays a mask over the node's own costmap, and with costmap_topic (`{}`) the node plans on another's: add Nav2's KeepoutFilter to that costmap instead, or leave costmap_topic empty",
+                self.keepout_mask_topic, self.costmap_topic
+            ));
         }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
             return Err("map_to_odom must be finite".into());
@@ -730,6 +744,24 @@ mod tests {
                 .to_string();
             assert!(err.contains(key), "{name}: {err}");
         }
+        // A keepout mask is laid over the node's own costmap only.
+        let mask = write(
+            "mask.yaml",
+            "    keepout_mask_topic: /keepout_filter_mask\n",
+        );
+        assert_eq!(
+            load_parameter_file(&mask).unwrap().node.keepout_mask_topic,
+            "/keepout_filter_mask"
+        );
+        let both = write(
+            "mask_and_costmap.yaml",
+            "    keepout_mask_topic: /mask\n    costmap_topic: /global_costmap/costmap\n",
+        );
+        let err = load_parameter_file(&both).unwrap_err().to_string();
+        assert!(
+            err.contains("keepout_mask_topic") && err.contains("KeepoutFilter"),
+            "{err}"
+        );
         let bad = write("rate.yaml", "    control_rate_hz: -1.0\n");
         assert!(load_parameter_file(&bad)
             .unwrap_err()

@@ -183,15 +183,67 @@ pub fn replan_if_blocked(
 }
 
 /// Makes the planning grid again each time [`Shared::settings_changed`] is told and the costmap
-/// parameters differ from the grid's, so the next plan does not wait for it, then checks the
-/// path being followed against the new grid as against a new map: a wider inflation may block
-/// it, as a costmap_2d reconfigure makes Nav2's IsPathValid fail and its tree replan. Each grid
-/// is checked once, also one a plan made again first.
+/// parameters or the keepout mask differ from the grid's, so the next plan does not wait for
+/// it, then checks the path being followed against the new grid as against a new map: a wider
+/// inflation or a new keepout zone may block it, as a costmap_2d reconfigure makes Nav2's
+/// IsPathValid fail and its tree replan. Each grid is checked once, also one a plan made again
+/// first.
 pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>) {
     loop {
         s.settings_changed.notified().await;
         if let Some(map) = s.current_map_off_thread().await {
-            replan_if_blocked(&s, &slot, &map, "the new inflation");
+            replan_if_blocked(&s, &slot, &map, "the new inflation or keepout mask");
+        }
+    }
+}
+
+/// The keepout masks on `keepout_mask_topic`, as Nav2's keepout filter takes its mask: each one
+/// checked (a map's bounds and cell cap; in the global frame, as this node has no transform to
+/// lay a mask of another frame by) and kept for every grid made from now on; the current grid
+/// is made again under it at once, and the path being followed checked against it
+/// ([`remake_grid_on_change`]): a path through a new keepout zone is planned again. A mask
+/// refused is reported on `/diagnostics` and the last good one stays.
+pub async fn receive_keepout_masks(s: Arc<Shared>, o: Outputs, sub: Subscription<OccupancyGrid>) {
+    let topic = s.params.keepout_mask_topic.clone();
+    loop {
+        let msg = match sub.async_take().await {
+            Ok((msg, _)) => msg,
+            Err(e) => {
+                warn!("{topic}: {e:?}");
+                continue;
+            }
+        };
+        let frame = msg.header.frame_id.clone();
+        let global = s.params.global_frame.clone();
+        let checked = tokio::task::spawn_blocking(move || {
+            if !frame.is_empty() && frame != global {
+                return Err(format!(
+                    "the mask is in frame `{frame}` and the node plans in `{global}`: publish it in `{global}`"
+                ));
+            }
+            convert::grid_from_msg(&msg).map_err(|e| e.to_string())
+        })
+        .await;
+        match checked {
+            Ok(Ok(mask)) => {
+                let info = *mask.info();
+                *s.keepout.write().expect("lock") = Some(Arc::new(mask));
+                info!(
+                    "keepout mask from {topic}: {} x {} cells of {:.3} m",
+                    info.width, info.height, info.resolution
+                );
+                s.settings_changed.notify_one();
+            }
+            Ok(Err(why)) => {
+                let planner = s.live.read().expect("lock").planner;
+                let f = Failure::new(
+                    ResultCode::InvalidInput,
+                    format!("keepout mask on {topic} refused, keeping the last good one: {why}"),
+                );
+                warn!("{}", f.message);
+                o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
+            }
+            Err(e) => error!("keepout mask task: {e}"),
         }
     }
 }

@@ -10,6 +10,7 @@
 //! | in | `/goal_pose` | geometry_msgs/PoseStamped | reliable, volatile, depth 10 (RViz's 2D Goal Pose) |
 //! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
+//! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
 //! | out | `/map` | nav_msgs/OccupancyGrid | reliable, transient local (only with `map_yaml`) |
 //! | out | `/plan` | nav_msgs/Path | reliable, transient local, depth 1 |
 //! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
@@ -317,6 +318,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             node.create_subscription::<OccupancyGridUpdate>(&u, Some(updates_qos.clone()))?;
         Some((costmap, updates))
     };
+    // A filter mask server (map_server) latches its mask, reliable, as map_server its map.
+    let keepout_sub = if params.keepout_mask_topic.is_empty() {
+        None
+    } else {
+        let t = topic(
+            &mut node,
+            &params.keepout_mask_topic,
+            "nav_msgs",
+            "OccupancyGrid",
+            &latched,
+        )?;
+        Some(node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?)
+    };
     let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
     let diag_topic = topic(
@@ -581,6 +595,13 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     ));
     if let Some(publisher) = costmap_pub {
         tasks.spawn(crate::outputs::publish_costmaps(shared.clone(), publisher));
+    }
+    if let Some(sub) = keepout_sub {
+        tasks.spawn(inputs::receive_keepout_masks(
+            shared.clone(),
+            out.clone(),
+            sub,
+        ));
     }
     tasks.spawn(inputs::remake_grid_on_change(
         shared.clone(),

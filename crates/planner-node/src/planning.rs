@@ -151,18 +151,18 @@ pub async fn install_map(
     source: &str,
     level: log::Level,
 ) -> Option<Arc<MapState>> {
-    // The costmap parameters as they are now; if one is set while this grid is made, the grid
-    // is made again once installed (below).
-    let costmap = s.live.read().expect("lock").config.costmap.clone();
+    // The costmap parameters and keepout mask as they are now; if either changes while this
+    // grid is made, the grid is made again once installed (below).
+    let settings = s.grid_settings();
     let (w, h) = (map.width(), map.height());
     // With a costmap topic the costmap is the planning grid, taken as it is (already inflated,
     // graded); otherwise the node inflates the map itself.
     let as_costmap = !s.params.costmap_topic.is_empty();
-    match tokio::task::spawn_blocking(move || MapState::new(Arc::new(map), as_costmap, &costmap))
+    match tokio::task::spawn_blocking(move || MapState::new(Arc::new(map), as_costmap, &settings))
         .await
     {
         Ok(Ok(state)) => {
-            let stale = !state.is_made_with(&s.live.read().expect("lock").config.costmap);
+            let stale = !state.is_made_with(&s.grid_settings());
             let state = Arc::new(state);
             *s.map.write().expect("lock") = Some(state.clone());
             s.grid_installed.notify_one();

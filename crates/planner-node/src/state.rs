@@ -31,6 +31,26 @@ pub struct Live {
     pub config: PlannerConfig,
 }
 
+/// What a planning grid is made with beside its map: the costmap parameters as last set and the
+/// keepout mask as last received (`keepout_mask_topic`; Nav2's keepout filter). A grid made with
+/// other settings is made again ([`Shared::current_map`]).
+#[derive(Clone, Debug)]
+pub struct GridSettings {
+    pub costmap: InflationConfig,
+    pub keepout: Option<Arc<GridMap>>,
+}
+
+#[cfg(test)]
+impl GridSettings {
+    /// `costmap` and no keepout mask.
+    pub fn without_keepout(costmap: InflationConfig) -> Self {
+        Self {
+            costmap,
+            keepout: None,
+        }
+    }
+}
+
 /// A validated map and the planning grid made from it (inflated obstacles, clearance, costs, the
 /// map's metadata). The map is kept beside its grid so that a changed inflation
 /// (`ros2 param set /patrol_planner costmap.inflation_radius ...`) makes the grid again from it,
@@ -48,18 +68,23 @@ pub struct MapState {
     as_costmap: bool,
     /// The costmap parameters the grid was made with.
     made_with: InflationConfig,
+    /// The keepout mask laid over it, if any (the one received, shared, not a copy).
+    keepout: Option<Arc<GridMap>>,
 }
 
 impl MapState {
-    /// Makes `map`'s planning grid: the node's inflation of it by `costmap`, or, with
-    /// `as_costmap`, the map as a costmap (already inflated and graded); either then downsampled
-    /// by `costmap.downsampling_factor` ([`planning_grid`]), so the inflation is exact.
+    /// Makes `map`'s planning grid: the node's inflation of it by `settings.costmap`, or, with
+    /// `as_costmap`, the map as a costmap (already inflated and graded); the keepout mask laid
+    /// over it; then downsampled by `costmap.downsampling_factor` ([`planning_grid`]), so the
+    /// inflation is exact.
     pub fn new(
         source: Arc<GridMap>,
         as_costmap: bool,
-        costmap: &InflationConfig,
+        settings: &GridSettings,
     ) -> Result<Self, ParamError> {
-        let (map, grid) = match planning_grid(&source, costmap, as_costmap)? {
+        let costmap = &settings.costmap;
+        let mask = settings.keepout.as_deref();
+        let (map, grid) = match planning_grid(&source, costmap, as_costmap, mask)? {
             (Cow::Borrowed(_), grid) => (source.clone(), grid),
             (Cow::Owned(coarse), grid) => (Arc::new(coarse), grid),
         };
@@ -69,17 +94,25 @@ impl MapState {
             map,
             as_costmap,
             made_with: costmap.clone(),
+            keepout: settings.keepout.clone(),
         })
     }
 
-    /// Whether the grid is what `costmap` would make of the map.
-    pub fn is_made_with(&self, costmap: &InflationConfig) -> bool {
-        if self.as_costmap {
-            self.made_with.allow_unknown == costmap.allow_unknown
-                && self.made_with.downsampling_factor == costmap.downsampling_factor
-        } else {
-            self.made_with == *costmap
-        }
+    /// Whether the grid is what `settings` would make of the map.
+    pub fn is_made_with(&self, settings: &GridSettings) -> bool {
+        let same_mask = match (&self.keepout, &settings.keepout) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        let costmap = &settings.costmap;
+        same_mask
+            && if self.as_costmap {
+                self.made_with.allow_unknown == costmap.allow_unknown
+                    && self.made_with.downsampling_factor == costmap.downsampling_factor
+            } else {
+                self.made_with == *costmap
+            }
     }
 
     /// The map cell for cell the grid's (downsampled, if the grid was): what a published
@@ -88,9 +121,9 @@ impl MapState {
         &self.map
     }
 
-    /// The same map's grid made with `costmap`.
-    pub fn remade(&self, costmap: &InflationConfig) -> Result<Self, ParamError> {
-        Self::new(self.source.clone(), self.as_costmap, costmap)
+    /// The same map's grid made with `settings`.
+    pub fn remade(&self, settings: &GridSettings) -> Result<Self, ParamError> {
+        Self::new(self.source.clone(), self.as_costmap, settings)
     }
 }
 
@@ -102,8 +135,11 @@ pub struct Shared {
     pub planning: PlannerConfig,
     pub live: RwLock<Live>,
     /// The current map; read it with [`Shared::current_map`], which brings its grid up to the
-    /// costmap parameters as last set.
+    /// costmap parameters as last set and the keepout mask as last received.
     pub map: RwLock<Option<Arc<MapState>>>,
+    /// The keepout mask as last received on `keepout_mask_topic` (Nav2's keepout filter mask,
+    /// in the global frame), laid over every grid made from now on.
+    pub keepout: RwLock<Option<Arc<GridMap>>>,
     /// Held while a grid is made again for changed costmap parameters, so that two requests
     /// arriving together do not both make it.
     pub remaking: Mutex<()>,
@@ -201,6 +237,7 @@ impl Shared {
             planning,
             live: RwLock::new(live),
             map: RwLock::new(None),
+            keepout: RwLock::new(None),
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
             settings_changed: tokio::sync::Notify::new(),
@@ -223,7 +260,7 @@ impl Shared {
     /// under values `ros2 param set` has since changed is made again first (blocking: call it
     /// off the async threads; it takes as long as inflating the map). `None` before any map.
     pub fn current_map(&self) -> Option<Arc<MapState>> {
-        let wanted = || self.live.read().expect("lock").config.costmap.clone();
+        let wanted = || self.grid_settings();
         let current = || self.map.read().expect("lock").clone();
         let map = current()?;
         if map.is_made_with(&wanted()) {
@@ -232,12 +269,12 @@ impl Shared {
         let _one_at_a_time = self.remaking.lock().expect("lock");
         // Made meanwhile by whoever held the lock, or replaced by a newer map.
         let map = current()?;
-        let costmap = wanted();
-        if map.is_made_with(&costmap) {
+        let settings = wanted();
+        if map.is_made_with(&settings) {
             return Some(map);
         }
         let t0 = Instant::now();
-        match map.remade(&costmap) {
+        match map.remade(&settings) {
             Ok(fresh) => {
                 let fresh = Arc::new(fresh);
                 let installed = {
@@ -254,7 +291,7 @@ impl Shared {
                     self.grid_installed.notify_one();
                 }
                 log::info!(
-                    "costmap parameters changed: the {} x {} grid made again in {:.0} ms",
+                    "costmap parameters or keepout mask changed: the {} x {} grid made again in {:.0} ms",
                     fresh.grid.width(),
                     fresh.grid.height(),
                     t0.elapsed().as_secs_f64() * 1e3
@@ -263,9 +300,18 @@ impl Shared {
             }
             // The values were validated when set, so this is not expected; the old grid serves.
             Err(e) => {
-                log::error!("costmap parameters: the grid could not be made again: {e}");
+                log::error!("the grid could not be made again: {e}");
                 Some(map)
             }
+        }
+    }
+
+    /// What a grid made now is made with: the costmap parameters as last set, the keepout mask
+    /// as last received.
+    pub fn grid_settings(&self) -> GridSettings {
+        GridSettings {
+            costmap: self.live.read().expect("lock").config.costmap.clone(),
+            keepout: self.keepout.read().expect("lock").clone(),
         }
     }
 
@@ -750,20 +796,19 @@ mod tests {
 
     fn shared_with(map: GridMap, as_costmap: bool) -> Shared {
         let s = Shared::new(NodeParams::default(), PlannerConfig::default());
-        let costmap = s.live.read().unwrap().config.costmap.clone();
-        let state = MapState::new(Arc::new(map), as_costmap, &costmap).unwrap();
+        let state = MapState::new(Arc::new(map), as_costmap, &s.grid_settings()).unwrap();
         *s.map.write().unwrap() = Some(Arc::new(state));
         s
     }
 
     #[test]
     fn a_downsampled_grid_is_made_again_from_the_map_as_it_arrived() {
-        let costmap = InflationConfig {
+        let costmap = GridSettings::without_keepout(InflationConfig {
             downsampling_factor: 2,
             safety_margin: 0.3,
             ..InflationConfig::default()
-        };
-        assert!((costmap.radius() - 0.55).abs() < 1e-12);
+        });
+        assert!((costmap.costmap.radius() - 0.55).abs() < 1e-12);
         let state = MapState::new(Arc::new(wall_map_at(1)), false, &costmap).unwrap();
         assert_eq!((state.map().width(), state.map().height()), (20, 5));
         assert_eq!((state.grid.width(), state.grid.height()), (20, 5));
@@ -774,10 +819,10 @@ mod tests {
         // free, with the robot's centre allowed 0.5 m from the wall.
         assert!(!state.grid.is_free(Cell::new(3, 2)) && state.grid.is_free(Cell::new(4, 2)));
         assert_eq!(state.map().value(Cell::new(0, 2)), 100);
-        let wider = InflationConfig {
+        let wider = GridSettings::without_keepout(InflationConfig {
             safety_margin: 0.6,
-            ..costmap.clone()
-        };
+            ..costmap.costmap.clone()
+        });
         let remade = state.remade(&wider).unwrap();
         assert_eq!(
             remade.map().width(),
@@ -785,11 +830,33 @@ mod tests {
             "made from the map as it arrived, not downsampled twice"
         );
         assert!(state.is_made_with(&costmap) && !state.is_made_with(&wider));
-        assert!(!state.is_made_with(&InflationConfig::default()));
+        assert!(!state.is_made_with(&GridSettings::without_keepout(InflationConfig::default())));
         // A costmap is downsampled too, and its factor read like its allow_unknown.
         let as_costmap = MapState::new(Arc::new(wall_map()), true, &costmap).unwrap();
         assert_eq!(as_costmap.grid.width(), 20);
-        assert!(!as_costmap.is_made_with(&InflationConfig::default()));
+        assert!(
+            !as_costmap.is_made_with(&GridSettings::without_keepout(InflationConfig::default()))
+        );
+        // A keepout mask is part of what the grid is made with: another mask (even an equal
+        // copy: masks are told apart by identity, as received) makes it again.
+        let mask = Arc::new(wall_map_at(10));
+        let kept_out = GridSettings {
+            keepout: Some(mask.clone()),
+            ..costmap.clone()
+        };
+        let under = state.remade(&kept_out).unwrap();
+        assert!(under.is_made_with(&kept_out) && !under.is_made_with(&costmap));
+        assert!(!state.is_made_with(&kept_out));
+        let copy = GridSettings {
+            keepout: Some(Arc::new(wall_map_at(10))),
+            ..costmap.clone()
+        };
+        assert!(!under.is_made_with(&copy));
+        // The mask's wall (column 10) is lethal but not inflated: the robot's centre is kept out
+        // of its coarse column 5 only, while the map's wall at column 1 is inflated.
+        assert!(!under.grid.is_free(Cell::new(5, 2)));
+        assert!(under.grid.is_free(Cell::new(4, 2)) && under.grid.is_free(Cell::new(6, 2)));
+        assert!(state.grid.is_free(Cell::new(5, 2)));
     }
 
     #[test]

@@ -140,16 +140,25 @@ impl InflationConfig {
 /// full one. The map comes back borrowed at factor 1, downsampled alike otherwise
 /// ([`GridMap::downsampled`]: a costmap's inscribed and lethal cells, 99 and 100, or a raw map's
 /// cells at or above `occupied_threshold`, count as its obstacles).
+///
+/// A `keepout` mask (Nav2's keepout filter: [`PlanningGrid::with_keepout`]) is laid over the
+/// grid at the map's own resolution, before downsampling, as costmap_2d applies its filters to
+/// the master grid.
 pub fn planning_grid<'a>(
     map: &'a GridMap,
     cfg: &InflationConfig,
     as_costmap: bool,
+    keepout: Option<&GridMap>,
 ) -> Result<(Cow<'a, GridMap>, PlanningGrid), ParamError> {
     cfg.validate()?;
     let full = if as_costmap {
         PlanningGrid::from_costmap(map, cfg.allow_unknown)
     } else {
         PlanningGrid::new(map, cfg)?
+    };
+    let full = match keepout {
+        Some(mask) => full.with_keepout(mask),
+        None => full,
     };
     let factor = cfg.downsampling_factor;
     if factor <= 1 {
@@ -467,6 +476,35 @@ impl PlanningGrid {
         self
     }
 
+    /// This grid under a keepout mask, as Nav2's keepout filter (costmap_2d's `KeepoutFilter`)
+    /// lays its mask over the master costmap: each cell takes the higher of its cost and the
+    /// cost of the mask cell under its centre, the mask's occupancy 0..100 scaled linearly to
+    /// 0..254 (the filter's `getMaskCost`); a cell of unknown cost takes the mask's. Cells
+    /// outside the mask, or under an unknown (negative) mask cell, keep theirs. So a mask cell
+    /// of 100 (a mask map's black) is lethal: the robot's centre stays out of it, as Nav2 keeps
+    /// it out (the zone is not inflated, as the filter does not inflate it); a lesser value
+    /// (a grey "preferred lanes" mask) is a cost the cost-aware searches and the safety
+    /// objective weigh. The mask is sampled at each cell's centre, whatever its resolution,
+    /// origin and rotation, in the map's frame.
+    pub fn with_keepout(mut self, mask: &GridMap) -> Self {
+        let mut costs = std::mem::take(&mut self.costs);
+        let mut kept_out = vec![false; costs.len()];
+        for (i, cost) in costs.iter_mut().enumerate() {
+            let centre = self.info.cell_to_world(self.info.cell_at(i));
+            let Some(under) = mask.info().world_to_cell(centre) else {
+                continue;
+            };
+            let Some(keep) = keepout_cost(mask.value(under)) else {
+                continue;
+            };
+            if *cost == NO_INFORMATION || keep > *cost {
+                *cost = keep;
+            }
+            kept_out[i] = keep >= INSCRIBED;
+        }
+        self.with_own_costs(|i| kept_out[i], costs)
+    }
+
     /// The same grid with another cost model (a costmap keeps its own costs).
     pub fn with_costs(mut self, model: CostModel) -> Self {
         if self.cost_model.is_some() {
@@ -738,6 +776,8 @@ pub const LETHAL: u8 = 254;
 pub const INSCRIBED: u8 = 253;
 /// The highest cost of a cell the robot may be in.
 pub const MAX_NON_OBSTACLE: u8 = 252;
+/// costmap_2d's cost of a cell of unknown cost (an unknown map cell).
+pub const NO_INFORMATION: u8 = 255;
 
 /// A cost as costmap_2d publishes it on a nav_msgs/OccupancyGrid (its publisher's translation
 /// table): 0 -> 0, 1..252 -> 1 + 97 * (cost - 1) / 251, 253 (inscribed) -> 99, 254 (lethal) ->
@@ -759,8 +799,15 @@ pub fn cost_from_occupancy(v: i8) -> u8 {
         99 => INSCRIBED,
         1..=98 => (1 + (v as u32 - 1) * 251 / 97).min(MAX_NON_OBSTACLE as u32) as u8,
         0 => 0,
-        _ => 255,
+        _ => NO_INFORMATION,
     }
+}
+
+/// The cost of a keepout mask's occupancy value, as Nav2's costmap filters read a mask
+/// (`CostmapFilter::getMaskCost`): 0..100 scaled linearly to 0..254 (above 100, lethal);
+/// `None` for unknown (negative) values, which leave the cell as it is.
+pub fn keepout_cost(v: i8) -> Option<u8> {
+    (v >= 0).then(|| (f64::from(v.min(100)) * f64::from(LETHAL) / 100.0).round() as u8)
 }
 
 /// costmap_2d's inflation layer: how a free cell's clearance becomes its cost.
@@ -945,6 +992,8 @@ mod tests {
             grid_with((40, 30), 0.1, 0.0, blocked),
             PlanningGrid::from_costmap(&costmap, true),
             PlanningGrid::from_costmap(&costmap, false),
+            grid_with((40, 30), 0.1, 0.3, blocked).with_keepout(&costmap),
+            PlanningGrid::from_costmap(&costmap, true).with_keepout(&costmap),
         ];
         for (k, grid) in grids.iter().enumerate() {
             let reader = grid.cell_reader();
@@ -1277,6 +1326,91 @@ mod tests {
             assert_eq!(occupancy_from_cost(cost), v);
             assert_eq!(cost_from_occupancy(v), cost);
         }
+    }
+
+    /// Nav2's keepout filter: a mask of another resolution and origin, sampled at each cell's
+    /// centre; its 100 lethal (the cell blocked, on the coarse grid too), its 50 a cost of 127
+    /// (the cell still free), its unknown and the cells it does not cover left as they were; a
+    /// lower mask cost never lowers a cell's, and an unknown cell takes the mask's.
+    #[test]
+    fn a_keepout_mask_is_laid_over_the_grid_as_nav2s_filter_lays_it() {
+        let info = MapInfo {
+            width: 20,
+            height: 10,
+            resolution: 0.1,
+            origin: Pose2::default(),
+        };
+        let mut data = vec![0i8; 200];
+        data[0] = 100; // an obstacle at cell (0, 0)
+        data[9 * 20 + 9] = -1; // an unknown cell at (9, 9)
+        let map = GridMap::new(info, data).unwrap();
+        // 0.2 m cells from (0.4, 0): columns 0-1 (x 0.4-0.8 m) 100, 2 (0.8-1.0) 50, 3 -1, 4 0.
+        let mask_info = MapInfo {
+            width: 5,
+            height: 5,
+            resolution: 0.2,
+            origin: Pose2::new(0.4, 0.0, 0.0),
+        };
+        let mask_row = [100i8, 100, 50, -1, 0];
+        let mask = GridMap::new(mask_info, mask_row.repeat(5)).unwrap();
+        let cfg = InflationConfig {
+            allow_unknown: true,
+            ..InflationConfig::none()
+        };
+        let plain = PlanningGrid::new(&map, &cfg).unwrap();
+        let g = plain.clone().with_keepout(&mask);
+        for y in 0..10 {
+            for x in 0..20 {
+                let c = Cell::new(x, y);
+                let (cost, free) = (g.cost(c), g.is_free(c));
+                match x {
+                    4..=7 => assert!(cost == LETHAL && !free, "{c:?} is kept out"),
+                    8 | 9 => assert!(cost == 127 && free, "{c:?}: {cost} {free}"),
+                    _ => assert_eq!((cost, free), (plain.cost(c), plain.is_free(c)), "{c:?}"),
+                }
+            }
+        }
+        // On the map taken as a costmap, the unknown cell (9, 9) costs NO_INFORMATION; a mask
+        // over the whole map gives it the mask's cost.
+        let as_costmap = PlanningGrid::from_costmap(&map, true);
+        assert_eq!(as_costmap.cost(Cell::new(9, 9)), NO_INFORMATION);
+        let cover_all = GridMap::new(
+            MapInfo {
+                width: 1,
+                height: 1,
+                resolution: 10.0,
+                origin: Pose2::default(),
+            },
+            vec![10],
+        )
+        .unwrap();
+        let g = as_costmap.with_keepout(&cover_all);
+        assert_eq!(
+            g.cost(Cell::new(9, 9)),
+            25,
+            "an unknown cell takes the mask's cost"
+        );
+        assert_eq!(
+            g.cost(Cell::new(0, 0)),
+            LETHAL,
+            "a lower mask cost lowers nothing"
+        );
+        assert!(!g.is_free(Cell::new(0, 0)) && g.is_free(Cell::new(1, 0)));
+        // Laid over before downsampling: the coarse cells over the zone are blocked.
+        let cfg = InflationConfig {
+            downsampling_factor: 2,
+            ..cfg
+        };
+        let (_, coarse) = planning_grid(&map, &cfg, false, Some(&mask)).unwrap();
+        assert!(
+            (0..5).all(|y| !coarse.is_free(Cell::new(2, y)) && !coarse.is_free(Cell::new(3, y)))
+        );
+        assert!(coarse.is_free(Cell::new(4, 2)) && coarse.is_free(Cell::new(8, 2)));
+        assert_eq!(keepout_cost(-1), None);
+        assert_eq!(
+            [0, 1, 50, 99, 100, 127].map(|v| keepout_cost(v).unwrap()),
+            [0, 3, 127, 251, 254, 254]
+        );
     }
 
     #[test]
