@@ -64,6 +64,11 @@ struct Request {
     /// the order given (one plan through them all, as Nav2's ComputePathThroughPoses).
     #[arg(long = "via", value_name = "X,Y", value_parser = parse_point, allow_hyphen_values = true)]
     via: Vec<[f64; 2]>,
+    /// A keepout mask (map_server YAML, in the map's frame), laid over the planning grid as the
+    /// node lays `keepout_mask_topic`'s (Nav2's keepout filter): black keeps the robot out,
+    /// grey costs.
+    #[arg(long)]
+    keepout: Option<PathBuf>,
     #[command(flatten)]
     common: Common,
 }
@@ -152,6 +157,7 @@ fn run(cli: Cli) -> Result<()> {
             svg,
         } => run::plan_command(
             &r.map,
+            r.keepout.as_deref(),
             r.start,
             &r.via,
             r.goal,
@@ -172,6 +178,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
         } => run::render_command(
             &r.map,
+            r.keepout.as_deref(),
             r.start,
             &r.via,
             r.goal,

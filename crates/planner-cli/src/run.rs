@@ -46,14 +46,30 @@ pub struct Workspace {
 
 impl Workspace {
     pub fn load(map_path: &Path, config: PlannerConfig) -> Result<Self> {
-        let map = planner_io::load_map(map_path)?;
-        Self::new(map, config)
+        Self::load_under(map_path, None, config)
     }
 
-    /// The planning grid of `map`, downsampled by `costmap.downsampling_factor` after it is
-    /// inflated (then `map` is the downsampled map, cell for cell the grid's).
-    pub fn new(map: GridMap, config: PlannerConfig) -> Result<Self> {
-        let (coarse, grid) = match planning_grid(&map, &config.costmap, false, None)? {
+    /// [`Workspace::load`] with a keepout mask (a map_server YAML, in the map's frame) laid
+    /// over the grid as the node lays `keepout_mask_topic`'s.
+    pub fn load_under(
+        map_path: &Path,
+        keepout: Option<&Path>,
+        config: PlannerConfig,
+    ) -> Result<Self> {
+        let map = planner_io::load_map(map_path)?;
+        let mask = keepout.map(planner_io::load_map_server).transpose()?;
+        Self::new_under(map, mask.as_ref(), config)
+    }
+
+    /// The planning grid of `map` with the `keepout` mask, if any, laid over it (Nav2's keepout
+    /// filter: `PlanningGrid::with_keepout`), downsampled by `costmap.downsampling_factor` after
+    /// it is inflated (then `map` is the downsampled map, cell for cell the grid's).
+    pub fn new_under(
+        map: GridMap,
+        keepout: Option<&GridMap>,
+        config: PlannerConfig,
+    ) -> Result<Self> {
+        let (coarse, grid) = match planning_grid(&map, &config.costmap, false, keepout)? {
             (Cow::Owned(coarse), grid) => (Some(coarse), grid),
             (Cow::Borrowed(_), grid) => (None, grid),
         };
@@ -208,6 +224,7 @@ pub fn failure_line(e: &PlanError) -> String {
 #[allow(clippy::too_many_arguments)]
 pub fn plan_command(
     map_path: &Path,
+    keepout: Option<&Path>,
     start: [f64; 2],
     via: &[[f64; 2]],
     goal: [f64; 2],
@@ -219,7 +236,7 @@ pub fn plan_command(
     let config = load_config(config)?;
     let planner = planner.unwrap_or(config.planner);
     let seed = seed.or(config.seed).unwrap_or(0);
-    let ws = Workspace::load(map_path, config)?;
+    let ws = Workspace::load_under(map_path, keepout, config)?;
     let query = ws.query(start, goal);
     let via = points(via);
     let (result, elapsed) = ws.run_through(planner, &query, &via, seed)?;
@@ -320,6 +337,7 @@ pub fn plan_command(
 #[allow(clippy::too_many_arguments)]
 pub fn render_command(
     map_path: &Path,
+    keepout: Option<&Path>,
     start: [f64; 2],
     via: &[[f64; 2]],
     goal: [f64; 2],
@@ -328,7 +346,7 @@ pub fn render_command(
     out: &Path,
     config: Option<&Path>,
 ) -> Result<()> {
-    let ws = Workspace::load(map_path, load_config(config)?)?;
+    let ws = Workspace::load_under(map_path, keepout, load_config(config)?)?;
     let query = ws.query(start, goal);
     let via = points(via);
     let mut drawing = Drawing::new(&ws.map, &ws.grid, &ws.config);

@@ -497,3 +497,113 @@ fn a_downsampled_map_gives_paths_clear_on_the_full_map() {
     let (coarse, full) = (expanded(config.to_str()), expanded(None));
     assert!(coarse * 10 < full * 4, "{coarse} against {full}");
 }
+
+/// `plan --keepout`: a keepout mask of its own resolution and origin keeps the path out of its
+/// black zone (the path goes round, longer); a mask that cannot be read is an error naming it.
+#[test]
+fn plan_keeps_out_of_a_keepout_masks_zone() {
+    let pgm = |w: usize, h: usize, black: &dyn Fn(usize, usize) -> bool| {
+        let mut bytes = format!("P5\n{w} {h}\n255\n").into_bytes();
+        for row in 0..h {
+            for col in 0..w {
+                bytes.push(if black(col, row) { 0 } else { 254 });
+            }
+        }
+        bytes
+    };
+    let yaml = |image: &str, res: f64, x: f64| {
+        format!("image: {image}\nresolution: {res}\norigin: [{x}, 0.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    };
+    // A 10 m x 6 m open room at 0.1 m; the zone x 4..6 m, y 0..4.6 m on a 0.2 m mask from (3, 0)
+    // (image rows top-down: the zone is the bottom 23 of 30 rows, columns 5..15). Round its top
+    // the path is about 10 m against 8 m straight.
+    scratch_file("keepout", "room.pgm", pgm(100, 60, &|_, _| false));
+    let room = scratch_file("keepout", "room.yaml", yaml("room.pgm", 0.1, 0.0));
+    scratch_file(
+        "keepout",
+        "mask.pgm",
+        pgm(25, 30, &|c, r| (5..15).contains(&c) && r >= 7),
+    );
+    let mask = scratch_file("keepout", "mask.yaml", yaml("mask.pgm", 0.2, 3.0));
+    let plan = |extra: &[&str]| {
+        let mut args = vec![
+            "plan",
+            "--map",
+            room.to_str().unwrap(),
+            "--start",
+            "1,2",
+            "--goal",
+            "9,2",
+            "--planner",
+            "astar",
+        ];
+        args.extend_from_slice(extra);
+        patrol_plan(&args)
+    };
+    let through_zone = |v: &serde_json::Value| {
+        v["waypoints"].as_array().unwrap().windows(2).any(|w| {
+            let (a, b) = (&w[0], &w[1]);
+            let (ax, ay, bx, by) = (
+                a[0].as_f64().unwrap(),
+                a[1].as_f64().unwrap(),
+                b[0].as_f64().unwrap(),
+                b[1].as_f64().unwrap(),
+            );
+            // Sampled along each segment: any point inside the zone.
+            (0..=20).any(|k| {
+                let t = k as f64 / 20.0;
+                let (x, y) = (ax + t * (bx - ax), ay + t * (by - ay));
+                (4.0..=6.0).contains(&x) && y <= 4.6
+            })
+        })
+    };
+    let (ok, open, err) = plan(&[]);
+    assert!(ok, "{err}");
+    let open: serde_json::Value = serde_json::from_str(&open).unwrap();
+    assert!(
+        through_zone(&open),
+        "on the open room the path runs straight: {open}"
+    );
+    let (ok, kept, err) = plan(&["--keepout", mask.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let kept: serde_json::Value = serde_json::from_str(&kept).unwrap();
+    assert!(!through_zone(&kept), "through the keepout zone: {kept}");
+    assert!(kept["length_m"].as_f64().unwrap() > open["length_m"].as_f64().unwrap() + 1.5);
+    let (ok, _, err) = plan(&["--keepout", "/nonexistent/mask.yaml"]);
+    assert!(!ok && err.contains("/nonexistent/mask.yaml"), "{err}");
+
+    // The README's example: the bundled mask closes datacenter_100's west aisle at y 6-9 m,
+    // which A*'s path takes without it.
+    let bundled = |extra: &[&str]| {
+        let map = common::repo("config/maps/datacenter_100.yaml");
+        let mut args = vec![
+            "plan",
+            "--map",
+            &map,
+            "--start",
+            "0.5,0.5",
+            "--goal",
+            "19.5,19.5",
+            "--planner",
+            "astar",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, out, err) = patrol_plan(&args);
+        assert!(ok, "{err}");
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+        v["waypoints"].as_array().unwrap().windows(2).any(|w| {
+            let p = |i: usize, k: usize| w[i][k].as_f64().unwrap();
+            (0..=20).any(|k| {
+                let t = k as f64 / 20.0;
+                let (x, y) = (
+                    p(0, 0) + t * (p(1, 0) - p(0, 0)),
+                    p(0, 1) + t * (p(1, 1) - p(0, 1)),
+                );
+                x < 2.0 && (6.0..9.0).contains(&y)
+            })
+        })
+    };
+    assert!(bundled(&[]), "the open map's path takes the west aisle");
+    let mask = common::repo("config/maps/datacenter_100_keepout.yaml");
+    assert!(!bundled(&["--keepout", &mask]), "through the closed aisle");
+}
