@@ -28,6 +28,7 @@ use patrol_msgs::nav2_msgs::{
     WaitFeedback, WaitGoal,
 };
 use planner_core::geometry::{Point2, Pose2};
+use planner_core::grid::inflation::LETHAL;
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
 use std::future::Future;
 use std::sync::atomic::Ordering;
@@ -248,8 +249,8 @@ fn no_pose() -> String {
 /// Why the motion may not go on from `pose`, if it may not: a pose it would pass within
 /// `behavior_server.simulate_ahead_time` is off the map, or within the robot's radius of an
 /// obstacle on the grid the node plans on (the robot would touch it: the planner's wider
-/// inflated band is where a path may not run, not where the robot may not be), or there is no
-/// map to check against.
+/// inflated band is where a path may not run, not where the robot may not be), or in a keepout
+/// zone (`keepout_mask_topic`; not if it starts in one), or there is no map to check against.
 fn collision_ahead(s: &Shared, motion: &Motion, pose: Pose2) -> Option<String> {
     let Some(map) = s.map.read().expect("lock").clone() else {
         return Some("no map to check the motion against".into());
@@ -262,14 +263,21 @@ fn collision_ahead(s: &Shared, motion: &Motion, pose: Pose2) -> Option<String> {
         AHEAD_STEP_S,
     );
     let grid = &map.grid;
+    // A keepout zone (a lethal cell that is no obstacle: `keepout_mask_topic`) counts as an
+    // obstacle for the robot's centre, unless the robot is in one already: then it may move,
+    // to get out.
+    let kept_out = |c| grid.cost(c) >= LETHAL;
+    let inside = grid
+        .cell_at(Point2::new(pose.x, pose.y))
+        .is_some_and(kept_out);
     ahead.iter().find_map(|p| {
         let clear = grid
             .cell_at(Point2::new(p.x, p.y))
-            .is_some_and(|c| grid.clearance(c) >= radius);
+            .is_some_and(|c| grid.clearance(c) >= radius && (inside || !kept_out(c)));
         (!clear).then(|| {
             format!(
                 "collision ahead: the robot would be within its radius ({radius} m) of an \
-                 obstacle at ({:.2}, {:.2})",
+                 obstacle, or in a keepout zone, at ({:.2}, {:.2})",
                 p.x, p.y
             )
         })

@@ -107,7 +107,7 @@ pub async fn receive_maps(
                     last = Some(msg);
                 }
                 if let Some(map) = install_map(&s, map, source, level).await {
-                    replan_if_blocked(&s, &slot, &map, "the new map");
+                    replan_if_blocked(&s, &slot, &map, "the new map", Level::Info);
                 }
             }
             Ok((Err(e), _)) => {
@@ -119,25 +119,19 @@ pub async fn receive_maps(
     }
 }
 
-/// After a new map (or a new inflation of it: `why`): the part of the followed path still ahead
-/// of the robot (from the path point it has come to) is checked against `map` with
-/// `is_path_valid`'s rule, once per grid ([`Shared::checked_grid`]); if the map blocks it, its
-/// goal goes back into the goal slot, with the via poses not yet passed
-/// (`navigate_through_poses`), and is planned again from where the robot is.
+/// After a new map (or a new inflation of it, a new keepout mask: `why`): the part of the
+/// followed path still ahead of the robot (from the path point it has come to) is checked
+/// against `map` with `is_path_valid`'s rule, once per grid and path
+/// ([`Shared::checked_grid`]); if the map blocks it, its goal goes back into the goal slot,
+/// with the via poses not yet passed (`navigate_through_poses`), and is planned again from
+/// where the robot is. `kept` is the level the log says a free path was kept at.
 pub fn replan_if_blocked(
     s: &Shared,
     slot: &watch::Sender<GoalSlot>,
     map: &Arc<MapState>,
     why: &str,
+    kept: Level,
 ) {
-    {
-        let mut checked = s.checked_grid.lock().expect("lock");
-        let this = Arc::downgrade(map);
-        if Weak::ptr_eq(&checked, &this) {
-            return;
-        }
-        *checked = this;
-    }
     // How far along its path the robot has come (the follower's progress, which only grows,
     // so a path that passes a place twice is judged from the right passage), with the path:
     // both under their locks, in the node's lock order. The goals still ahead are taken again
@@ -153,6 +147,14 @@ pub fn replan_if_blocked(
     let Some(followed) = followed else {
         return;
     };
+    {
+        let mut checked = s.checked_grid.lock().expect("lock");
+        let this = (Arc::downgrade(map), Arc::downgrade(&followed.path));
+        if Weak::ptr_eq(&checked.0, &this.0) && Weak::ptr_eq(&checked.1, &this.1) {
+            return;
+        }
+        *checked = this;
+    }
     let path = &followed.path;
     // The robot's own pose may be inside the new map's inflated band; the path ahead must not be.
     let ahead = &path[(nearest + 1).min(path.len())..];
@@ -178,7 +180,7 @@ pub fn replan_if_blocked(
             }
         });
     } else {
-        info!("{why}: the path being followed is still free, kept");
+        log!(kept, "{why}: the path being followed is still free, kept");
     }
 }
 
@@ -188,11 +190,18 @@ pub fn replan_if_blocked(
 /// inflation or a new keepout zone may block it, as a costmap_2d reconfigure makes Nav2's
 /// IsPathValid fail and its tree replan. Each grid is checked once, also one a plan made again
 /// first.
+///
+/// Each path handed to the follower is checked too, against the grid as it is then: a plan takes
+/// its grid when it starts, and a new map, inflation or keepout mask installed while it ran was
+/// checked against the path before it, not against this one.
 pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>) {
     loop {
-        s.settings_changed.notified().await;
+        let (why, kept) = tokio::select! {
+            _ = s.settings_changed.notified() => ("the new inflation or keepout mask", Level::Info),
+            _ = s.path_installed.notified() => ("the grid as it is now", Level::Debug),
+        };
         if let Some(map) = s.current_map_off_thread().await {
-            replan_if_blocked(&s, &slot, &map, "the new inflation or keepout mask");
+            replan_if_blocked(&s, &slot, &map, why, kept);
         }
     }
 }

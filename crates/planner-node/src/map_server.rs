@@ -105,7 +105,7 @@ pub async fn load(
     if s.params.costmap_topic.is_empty() {
         match (install_map(s, map, path, log::Level::Info).await, asked) {
             (Some(state), Asked::Request(slot)) => {
-                replan_if_blocked(s, slot, &state, "the loaded map")
+                replan_if_blocked(s, slot, &state, "the loaded map", log::Level::Info)
             }
             (Some(_), Asked::Startup) => {}
             (None, Asked::Request(_)) => {

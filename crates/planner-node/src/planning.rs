@@ -162,9 +162,10 @@ pub async fn install_map(
         .await
     {
         Ok(Ok(state)) => {
-            let stale = !state.is_made_with(&s.grid_settings());
             let state = Arc::new(state);
             *s.map.write().expect("lock") = Some(state.clone());
+            // Judged once installed: settings that change after this are the remake's to see.
+            let stale = !state.is_made_with(&s.grid_settings());
             s.grid_installed.notify_one();
             if stale {
                 s.settings_changed.notify_one();

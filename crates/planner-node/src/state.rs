@@ -150,10 +150,15 @@ pub struct Shared {
     /// parameters that changed while it was made: the grid is then made again at once
     /// (`inputs::remake_grid_on_change`), not by the next plan.
     pub settings_changed: tokio::sync::Notify,
-    /// The last grid the path being followed was checked against (`inputs::replan_if_blocked`),
-    /// so that a grid is checked once, whichever task installed it.
-    /// Weak: it keeps no grid alive.
-    pub checked_grid: Mutex<Weak<MapState>>,
+    /// The last grid and path checked against each other (`inputs::replan_if_blocked`), so
+    /// that a path is checked once against each grid, whichever task installed it.
+    /// Weak: it keeps no grid or path alive.
+    #[allow(clippy::type_complexity)]
+    pub checked_grid: Mutex<(Weak<MapState>, Weak<Vec<(f64, f64)>>)>,
+    /// Told each time a path is handed to the follower: it may have been planned on a grid
+    /// that a new map, inflation or keepout mask replaced while it was planned, so it is
+    /// checked against the grid as it is now (`inputs::remake_grid_on_change`).
+    pub path_installed: tokio::sync::Notify,
     /// The latest start pose (map frame) and when it arrived.
     pub start: RwLock<Option<(Pose2, Instant)>>,
     /// Counts the goals that take the robot (each `/goal_pose`, each `navigate_to_pose`, each
@@ -241,7 +246,8 @@ impl Shared {
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
             settings_changed: tokio::sync::Notify::new(),
-            checked_grid: Mutex::new(Weak::new()),
+            checked_grid: Mutex::new((Weak::new(), Weak::new())),
+            path_installed: tokio::sync::Notify::new(),
             start: RwLock::new(None),
             goals: AtomicU64::new(0),
             odom: RwLock::new(None),
@@ -631,6 +637,7 @@ impl Shared {
         *follower = Some(f);
         *followed = Some(plan);
         *self.motion.lock().expect("lock") = None;
+        self.path_installed.notify_one();
         true
     }
 
