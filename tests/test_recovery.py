@@ -18,6 +18,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - A /goal_pose with no path at first is recovered too (a failed plan, as bt_navigator's tree
   recovers ComputePathToPose), and reached once a new map opens the way; so is one whose path a
   new map blocks and whose replan fails.
+- A speed limit on `speed_limit` (nav2_msgs/SpeedLimit, as Nav2's speed filter sends it) slows
+  the drive; 0 lifts it.
 - The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
   room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
@@ -250,6 +252,32 @@ def test_a_goal_pose_with_no_path_yet_is_recovered_and_planned_again(rig):
     assert math.hypot(robot.x - START[0], robot.y - START[1]) <= 0.15, (robot.x, robot.y)
     text = log.read_text()
     assert "from /goal_pose: a new map blocked the path, and replanning failed" in text, text[-2000:]
+
+
+def test_a_speed_limit_slows_the_drive_as_controller_server_takes_it(rig):
+    """Nav2's speed filter publishes nav2_msgs/SpeedLimit on `speed_limit` as the robot enters a
+    slow zone, and controller_server drives under it: at 50 % the node's commands stay within
+    0.3 m/s all the way to the goal; a limit of 0 lifts it, and the drive back reaches the
+    chassis' 0.6 m/s again."""
+    from nav2_msgs.msg import SpeedLimit
+
+    ros, robot, client = rig
+    robot.blocked = False
+    pub = ros.node.create_publisher(SpeedLimit, "/speed_limit", 10)
+    ros.wait_matched(pub, "/speed_limit")
+    pub.publish(SpeedLimit(percentage=True, speed_limit=50.0))
+    ros.spin_for(0.5)
+    robot.cmds.clear()
+    r, _ = navigate(ros, client, GOAL, lambda f: None, 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
+    fastest = max(c.linear.x for c in robot.cmds)
+    assert 0.25 < fastest <= 0.3 + 1e-9, fastest
+    pub.publish(SpeedLimit(percentage=False, speed_limit=0.0))
+    ros.spin_for(0.5)
+    robot.cmds.clear()
+    r, _ = navigate(ros, client, START, lambda f: None, 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
+    assert max(c.linear.x for c in robot.cmds) > 0.5, "the limit was not lifted"
 
 
 def test_the_behavior_servers_actions(rig):

@@ -19,7 +19,7 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     BackUpGoal, ComputePathThroughPosesGoal, ComputePathToPoseGoal, DriveOnHeadingGoal,
     FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest, LoadMapRequest,
-    NavigateThroughPosesGoal, NavigateToPoseGoal, SpinGoal, WaitGoal,
+    NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -70,7 +70,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 22 {
+    match selector % 23 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -129,6 +129,7 @@ fuzz_target!(|data: &[u8]| {
                 assert!(req.map_url.len() <= payload.len());
             }
         }
+        21 => drop(round_trip::<SpeedLimit>(payload)),
         _ => drop(round_trip::<ChangeStateRequest>(payload)),
     }
 });

@@ -452,6 +452,14 @@ pub mod nav2_msgs {
     pub struct GetCostmapResponse {
         pub map: Costmap,
     }
+    /// nav2_msgs/msg/SpeedLimit: the speed limit controller_server takes on `speed_limit`
+    /// (Nav2's speed filter publishes it): in percent of the top speed, or in m/s; 0 no limit
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct SpeedLimit {
+        pub header: super::std_msgs::Header,
+        pub percentage: bool,
+        pub speed_limit: f64,
+    }
     /// nav2_msgs/srv/LoadMap request (map_server's `load_map`): the map's YAML, a path
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct LoadMapRequest {
@@ -533,6 +541,7 @@ pub mod nav2_msgs {
         GetCostmapResponse,
         LoadMapRequest,
         LoadMapResponse,
+        SpeedLimit,
         SpinGoal,
         BehaviorResult,
         SpinFeedback,

@@ -605,6 +605,15 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         g::GET_COSTMAP_RESPONSE,
     );
     check(
+        "SpeedLimit",
+        SpeedLimit {
+            header: header(),
+            percentage: true,
+            speed_limit: 42.5,
+        },
+        g::SPEED_LIMIT,
+    );
+    check(
         "LoadMap request",
         LoadMapRequest {
             map_url: "/maps/floor2.yaml".into(),

@@ -18,7 +18,7 @@ from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose
                               FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import GetCostmap, IsPathValid, LoadMap
-from nav2_msgs.msg import Costmap, CostmapMetaData
+from nav2_msgs.msg import Costmap, CostmapMetaData, SpeedLimit
 
 
 def header(frame="map"):
@@ -158,6 +158,7 @@ def messages():
     f = Wait.Feedback()
     f.time_left.sec, f.time_left.nanosec = 3, 80
     out["WAIT_FEEDBACK"] = f
+    out["SPEED_LIMIT"] = SpeedLimit(header=header(), percentage=True, speed_limit=42.5)
     out["LOAD_MAP_REQUEST"] = LoadMap.Request(map_url="/maps/floor2.yaml")
     grid = OccupancyGrid(header=header())
     grid.info.resolution, grid.info.width, grid.info.height = 0.05, 3, 1

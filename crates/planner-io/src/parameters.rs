@@ -98,6 +98,11 @@ pub struct NodeParams {
     /// the current grid at once. Not with `costmap_topic`, whose costmap has its own filters.
     /// Empty (default): none.
     pub keepout_mask_topic: String,
+    /// controller_server's `speed_limit_topic`: the speed limits (nav2_msgs/SpeedLimit) the
+    /// follower drives under, as Nav2's speed filter publishes them for its zones (in percent of
+    /// `twist_limits.max_linear` or in m/s; 0 lifts the limit). Only with `follow_plan`. Empty:
+    /// none.
+    pub speed_limit_topic: String,
     /// follow_waypoints: put the waypoints in the fastest order before driving them (the route
     /// planner's), instead of the order given.
     pub order_waypoints: bool,
@@ -224,6 +229,7 @@ impl Default for NodeParams {
             bond_heartbeat_period: 0.1,
             costmap_topic: String::new(),
             keepout_mask_topic: String::new(),
+            speed_limit_topic: "speed_limit".into(),
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
             stop_on_failure: false,

@@ -391,7 +391,7 @@ where
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
     let mut driven = Plan::default();
     if let Some(first) = s.followed.lock().expect("lock").as_ref() {
-        driven.update(&first.path, &s.params.twist_limits);
+        driven.update(&first.path, &s.drive_limits());
     }
     let mut watch = StallWatch::new(s);
     let mut stuck = None;
@@ -420,7 +420,7 @@ where
             let Some(f) = follower.as_ref() else { break };
             let followed = s.followed.lock().expect("lock");
             if let Some(now) = followed.as_ref() {
-                driven.update(&now.path, &s.params.twist_limits);
+                driven.update(&now.path, &s.drive_limits());
             }
             let poses = followed
                 .as_ref()
@@ -505,6 +505,8 @@ impl StallWatch {
 struct Plan {
     /// The path, to tell a replan from it.
     path: Option<Arc<Vec<(f64, f64)>>>,
+    /// The top speed its time was reckoned at, to tell a new speed limit from it.
+    speed: f64,
     /// When the time to drive it runs out.
     deadline: Option<Instant>,
     /// When the whole drive's time runs out, replans and all: three times the first plan's, so a
@@ -518,11 +520,19 @@ impl Plan {
     /// Takes `path` as the plan if it is a new one (the first, or a replan), with the time to
     /// drive it from now: its length at a third of the top speed, 20 s for turning on the spot,
     /// and for each cusp (chassis::follower::cusps), where the robot slows to a stop and turns
-    /// round, [`CUSP_S`] and a half turn at the top turn rate (not beyond the drive's cap).
+    /// round, [`CUSP_S`] and a half turn at the top turn rate (not beyond the drive's cap). A new
+    /// speed limit (`limits.max_linear` changed) reckons the time again from now, the cap too:
+    /// a slow zone may take far longer than the plan was given.
     fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, limits: &TwistLimits) {
-        if self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path)) {
+        let same_path = self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path));
+        let same_speed = self.speed == limits.max_linear;
+        if same_path && same_speed {
             return;
         }
+        if !same_speed {
+            self.cap = None;
+        }
+        self.speed = limits.max_linear;
         let cusps = chassis::follower::cusps(path).len() as f64;
         let per_cusp = CUSP_S + std::f64::consts::PI / limits.max_angular.max(0.05);
         let time = Duration::from_secs_f64(

@@ -52,7 +52,7 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
                 }
                 (Some(f), Some(p)) => {
                     stale_reported = false;
-                    let (cmd, status) = f.command(&chassis_pose(p), &s.params.twist_limits);
+                    let (cmd, status) = f.command(&chassis_pose(p), &s.drive_limits());
                     if status == FollowStatus::Arrived {
                         info!("goal reached");
                         *guard = None;
@@ -91,7 +91,14 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
             }
             None => watched = None,
         }
-        let applied = s.params.twist_limits.apply(cmd, previous, dt);
+        // A plan is driven under the speed limit in force; a behaviour's motion under the
+        // chassis' limits (Nav2's behaviours do not take speed limits either).
+        let limits = if s.follower.lock().expect("lock").is_some() {
+            s.drive_limits()
+        } else {
+            s.params.twist_limits
+        };
+        let applied = limits.apply(cmd, previous, dt);
         previous = applied;
         s.moving.store(applied != Twist2::STOP, Ordering::SeqCst);
         o.drive(&s, applied).await;

@@ -12,7 +12,7 @@ use crate::state::{path_length, GoalRequest, GoalSlot, MapState, Shared};
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
-use patrol_msgs::nav2_msgs::NavigateToPoseGoal;
+use patrol_msgs::nav2_msgs::{NavigateToPoseGoal, SpeedLimit};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
@@ -257,6 +257,52 @@ pub async fn receive_keepout_masks(s: Arc<Shared>, o: Outputs, sub: Subscription
     }
 }
 
+/// The speed limits on `speed_limit_topic`, as controller_server takes them for its controller
+/// (Nav2's speed filter publishes one as the robot enters or leaves a slow zone): in percent of
+/// the top speed or in m/s, 0 lifting the limit; the follower drives every plan under the one
+/// in force ([`Shared::drive_limits`]), never faster than the chassis' limit. A limit that is
+/// not a finite, non-negative number is refused (logged) and the one in force stays.
+pub async fn receive_speed_limits(s: Arc<Shared>, sub: Subscription<SpeedLimit>) {
+    let topic = s.params.speed_limit_topic.clone();
+    loop {
+        let Ok((msg, _)) = sub.async_take().await else {
+            continue;
+        };
+        let Some(limit) = speed_cap(&msg, s.params.twist_limits.max_linear) else {
+            warn!(
+                "{topic}: speed limit {} refused (a finite number, at least 0), the one in force stays",
+                msg.speed_limit
+            );
+            continue;
+        };
+        let before = std::mem::replace(&mut *s.speed_limit.write().expect("lock"), limit);
+        if before != limit {
+            match limit {
+                Some(v) => info!("{topic}: driving at most {v:.3} m/s"),
+                None => info!("{topic}: speed limit lifted"),
+            }
+        }
+    }
+}
+
+/// The speed limit a SpeedLimit sets, as Nav2's regulated pure pursuit reads it
+/// (`setSpeedLimit`): `Some(None)` for 0 (no limit), else `Some` of the top speed in m/s (a
+/// percentage of `max_linear`, or the value); `None` for a value that is not a finite,
+/// non-negative number.
+fn speed_cap(msg: &SpeedLimit, max_linear: f64) -> Option<Option<f64>> {
+    let v = msg.speed_limit;
+    if !v.is_finite() || v < 0.0 {
+        return None;
+    }
+    Some(if v == 0.0 {
+        None
+    } else if msg.percentage {
+        Some(max_linear * v / 100.0)
+    } else {
+        Some(v)
+    })
+}
+
 /// `/initialpose` or `/amcl_pose` (`name`): the start of the next plan, and (with
 /// `track_map_to_odom`) the anchor of `map -> odom` for the odometry that follows.
 pub async fn receive_start_poses(
@@ -394,6 +440,29 @@ pub async fn receive_goals(
                 let planner = s.live.read().expect("lock").planner;
                 o.diagnose(&s, &Outcome::failed(planner, 0, f)).await
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nav2's reading of a SpeedLimit: 0 lifts the limit, a percentage is of the top speed, an
+    /// absolute value is m/s; NaN, infinities and negative values are refused.
+    #[test]
+    fn speed_limits_read_as_nav2s_controller_reads_them() {
+        let limit = |percentage, speed_limit| SpeedLimit {
+            percentage,
+            speed_limit,
+            ..SpeedLimit::default()
+        };
+        assert_eq!(speed_cap(&limit(true, 0.0), 0.6), Some(None));
+        assert_eq!(speed_cap(&limit(false, 0.0), 0.6), Some(None));
+        assert_eq!(speed_cap(&limit(true, 50.0), 0.6), Some(Some(0.3)));
+        assert_eq!(speed_cap(&limit(false, 0.25), 0.6), Some(Some(0.25)));
+        for bad in [f64::NAN, f64::INFINITY, -1.0] {
+            assert_eq!(speed_cap(&limit(true, bad), 0.6), None, "{bad}");
         }
     }
 }

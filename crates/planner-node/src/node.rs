@@ -10,6 +10,7 @@
 //! | in | `/goal_pose` | geometry_msgs/PoseStamped | reliable, volatile, depth 10 (RViz's 2D Goal Pose) |
 //! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
+//! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
 //! | out | `/map` | nav_msgs/OccupancyGrid | reliable, transient local (only with `map_yaml`) |
 //! | out | `/plan` | nav_msgs/Path | reliable, transient local, depth 1 |
@@ -49,8 +50,8 @@ use patrol_msgs::nav2_msgs::{
     FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest, GetCostmapResponse,
     IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
     NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
-    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpinFeedback, SpinGoal,
-    WaitFeedback, WaitGoal,
+    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback,
+    SpinGoal, WaitFeedback, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -395,6 +396,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
     let odom_topic = topic(&mut node, "odom", "nav_msgs", "Odometry", &best_effort)?;
     let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort))?;
+    // controller_server's speed limits (reliable, volatile, depth 10: its QoS(10)).
+    let speed_limit_sub = if params.follow_plan && !params.speed_limit_topic.is_empty() {
+        let t = topic(
+            &mut node,
+            &params.speed_limit_topic,
+            "nav2_msgs",
+            "SpeedLimit",
+            &volatile,
+        )?;
+        Some(node.create_subscription::<SpeedLimit>(&t, Some(volatile.clone()))?)
+    } else {
+        None
+    };
     // map -> odom as AMCL or a SLAM node broadcasts it, with tf2's listener QoS: /tf reliable
     // and volatile (depth 100), /tf_static reliable and transient local.
     let mut tf_subs = Vec::new();
@@ -595,6 +609,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     ));
     if let Some(publisher) = costmap_pub {
         tasks.spawn(crate::outputs::publish_costmaps(shared.clone(), publisher));
+    }
+    if let Some(sub) = speed_limit_sub {
+        tasks.spawn(inputs::receive_speed_limits(shared.clone(), sub));
     }
     if let Some(sub) = keepout_sub {
         tasks.spawn(inputs::receive_keepout_masks(

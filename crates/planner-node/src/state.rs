@@ -189,6 +189,8 @@ pub struct Shared {
     pub failed_replan: Mutex<Option<(u64, Failure)>>,
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
+    /// The speed limit (m/s) last set on `speed_limit_topic`, if one is in force.
+    pub speed_limit: RwLock<Option<f64>>,
     /// The lifecycle state: only an active node plans and drives.
     pub lifecycle: RwLock<crate::lifecycle::State>,
     /// The navigation going on, if any (see [`Shared::start_navigating`]).
@@ -258,6 +260,7 @@ impl Shared {
             failed_replan: Mutex::new(None),
             arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
+            speed_limit: RwLock::new(None),
             navigator: Mutex::new(None),
         }
     }
@@ -310,6 +313,16 @@ impl Shared {
                 Some(map)
             }
         }
+    }
+
+    /// The limits the follower drives a plan under: the chassis' (`twist_limits`), the top speed
+    /// lowered to the speed limit in force (`speed_limit_topic`), never raised.
+    pub fn drive_limits(&self) -> chassis::limits::TwistLimits {
+        let mut limits = self.params.twist_limits;
+        if let Some(cap) = *self.speed_limit.read().expect("lock") {
+            limits.max_linear = limits.max_linear.min(cap);
+        }
+        limits
     }
 
     /// What a grid made now is made with: the costmap parameters as last set, the keepout mask
@@ -864,6 +877,24 @@ mod tests {
         assert!(!under.grid.is_free(Cell::new(5, 2)));
         assert!(under.grid.is_free(Cell::new(4, 2)) && under.grid.is_free(Cell::new(6, 2)));
         assert!(state.grid.is_free(Cell::new(5, 2)));
+    }
+
+    /// A speed limit lowers the top speed a plan is driven at, never raises it past the
+    /// chassis' limit, and leaves the turn rate and accelerations as they are.
+    #[test]
+    fn a_speed_limit_lowers_the_top_speed_only() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let chassis = s.params.twist_limits;
+        assert_eq!(s.drive_limits(), chassis);
+        *s.speed_limit.write().unwrap() = Some(0.2);
+        let slow = s.drive_limits();
+        assert_eq!(slow.max_linear, 0.2);
+        assert_eq!(
+            (slow.max_angular, slow.max_linear_accel),
+            (chassis.max_angular, chassis.max_linear_accel)
+        );
+        *s.speed_limit.write().unwrap() = Some(5.0);
+        assert_eq!(s.drive_limits().max_linear, chassis.max_linear);
     }
 
     #[test]
