@@ -61,19 +61,40 @@ impl TwistLimits {
         .all(|v| v.is_finite() && *v > 0.0)
     }
 
+    /// These limits with the top linear speed lowered to `max_linear` (a speed limit), no
+    /// faster than the robot can brake: from `previous`, over `dt` seconds, the top speed falls
+    /// by at most `max_linear_accel * dt`. A limit that drops below the speed being driven is
+    /// then reached by braking within the acceleration limit, where [`TwistLimits::apply`]
+    /// (which clamps `previous` to the top speed) would make the speed jump down. Never above
+    /// these limits' own top speed; a `max_linear` that is not a finite positive number leaves
+    /// them as they are.
+    pub fn lowered_to(&self, max_linear: f64, previous: Twist2, dt: f64) -> TwistLimits {
+        if !(max_linear.is_finite() && max_linear > 0.0) {
+            return *self;
+        }
+        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        let braking = if previous.linear.is_finite() {
+            previous.linear.abs() - self.max_linear_accel * dt
+        } else {
+            0.0
+        };
+        TwistLimits {
+            max_linear: max_linear.max(braking).min(self.max_linear),
+            ..*self
+        }
+    }
+
     /// The command to apply: `cmd` clamped to the speed limits and, from `previous` over `dt`
     /// seconds, to the acceleration limits. A non-finite command (or `dt`) is a stop, still
-    /// reached within the acceleration limits.
+    /// reached within the acceleration limits. The speed limits come first: a `previous` above
+    /// them (the limits just lowered) gives way to them at once where braking could not reach
+    /// them in `dt` ([`TwistLimits::lowered_to`] lowers a limit gently instead).
     pub fn apply(&self, cmd: Twist2, previous: Twist2, dt: f64) -> Twist2 {
         let finite = cmd.linear.is_finite() && cmd.angular.is_finite();
         let target = if finite { cmd } else { Twist2::STOP };
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         let step = |target: f64, prev: f64, max: f64, accel: f64| {
-            let prev = if prev.is_finite() {
-                prev.clamp(-max, max)
-            } else {
-                0.0
-            };
+            let prev = if prev.is_finite() { prev } else { 0.0 };
             let wanted = target.clamp(-max, max);
             let reach = accel * dt;
             wanted.clamp(prev - reach, prev + reach).clamp(-max, max)
@@ -127,6 +148,51 @@ mod tests {
                 prop_assert!(out.linear.abs() <= pv.abs() + 1e-12 && out.angular.abs() <= pw.abs() + 1e-12);
             }
         }
+    }
+
+    proptest! {
+        /// A lowered top speed is braked down to within the acceleration limit, and held to
+        /// from then on; the chassis' own top speed is never exceeded.
+        #[test]
+        fn a_lowered_top_speed_is_reached_by_braking(pv in -0.6f64..0.6, cap in 0.01f64..1.0, v in any_f64(), dt in 0.0f64..0.5) {
+            let limits = TwistLimits::default();
+            let previous = Twist2 { linear: pv, angular: 0.0 };
+            let out = limits.lowered_to(cap, previous, dt).apply(Twist2 { linear: v, angular: 0.0 }, previous, dt);
+            prop_assert!((out.linear - pv).abs() <= limits.max_linear_accel * dt + 1e-12);
+            prop_assert!(out.linear.abs() <= limits.max_linear + 1e-12);
+            let braked = (pv.abs() - limits.max_linear_accel * dt).max(0.0);
+            prop_assert!(out.linear.abs() <= cap.max(braked) + 1e-12);
+        }
+    }
+
+    /// From the top speed under a new limit of half of it: 0.025 m/s less each 50 ms tick,
+    /// down to the limit in 12 ticks, where it stays.
+    #[test]
+    fn a_speed_limit_below_the_speed_driven_brakes_down_to_it() {
+        let limits = TwistLimits::default();
+        let dt = 0.05;
+        let mut previous = Twist2 {
+            linear: 0.6,
+            angular: 0.0,
+        };
+        let full_ahead = Twist2 {
+            linear: 1.0,
+            angular: 0.0,
+        };
+        let mut speeds = Vec::new();
+        for _ in 0..14 {
+            previous = limits
+                .lowered_to(0.3, previous, dt)
+                .apply(full_ahead, previous, dt);
+            speeds.push(previous.linear);
+        }
+        assert!((speeds[0] - 0.575).abs() < 1e-9, "{speeds:?}");
+        assert!((speeds[11] - 0.3).abs() < 1e-9, "{speeds:?}");
+        assert!(
+            speeds[12..].iter().all(|v| (v - 0.3).abs() < 1e-9),
+            "{speeds:?}"
+        );
+        assert_eq!(limits.lowered_to(f64::NAN, previous, dt), limits);
     }
 
     #[test]

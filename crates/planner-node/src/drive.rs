@@ -391,7 +391,7 @@ where
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
     let mut driven = Plan::default();
     if let Some(first) = s.followed.lock().expect("lock").as_ref() {
-        driven.update(&first.path, &s.drive_limits());
+        driven.update(&first.path, &s.drive_limits(), Instant::now());
     }
     let mut watch = StallWatch::new(s);
     let mut stuck = None;
@@ -420,7 +420,7 @@ where
             let Some(f) = follower.as_ref() else { break };
             let followed = s.followed.lock().expect("lock");
             if let Some(now) = followed.as_ref() {
-                driven.update(&now.path, &s.drive_limits());
+                driven.update(&now.path, &s.drive_limits(), Instant::now());
             }
             let poses = followed
                 .as_ref()
@@ -520,34 +520,85 @@ impl Plan {
     /// Takes `path` as the plan if it is a new one (the first, or a replan), with the time to
     /// drive it from now: its length at a third of the top speed, 20 s for turning on the spot,
     /// and for each cusp (chassis::follower::cusps), where the robot slows to a stop and turns
-    /// round, [`CUSP_S`] and a half turn at the top turn rate (not beyond the drive's cap). A new
-    /// speed limit (`limits.max_linear` changed) reckons the time again from now, the cap too:
-    /// a slow zone may take far longer than the plan was given.
-    fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, limits: &TwistLimits) {
-        let same_path = self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path));
-        let same_speed = self.speed == limits.max_linear;
-        if same_path && same_speed {
+    /// round, [`CUSP_S`] and a half turn at the top turn rate (not beyond the drive's cap).
+    ///
+    /// A new speed limit (`limits.max_linear` changed) stretches what is left of the plan's
+    /// time and of the cap by the ratio of the old top speed to the new: a slow zone may take
+    /// far longer than the plan was given, and a limit that keeps changing gives the drive no
+    /// more time than driving at each speed in turn would (resetting the cap instead would let
+    /// a flapping limit keep a hopeless drive going for ever).
+    fn update(&mut self, path: &Arc<Vec<(f64, f64)>>, limits: &TwistLimits, now: Instant) {
+        let speed = limits.max_linear.max(0.05);
+        if self.path.is_some() && self.speed != speed {
+            let stretch = self.speed / speed;
+            self.deadline = self.deadline.map(|t| stretched(now, t, stretch));
+            self.cap = self.cap.map(|t| stretched(now, t, stretch));
+        }
+        self.speed = speed;
+        if self.path.as_ref().is_some_and(|p| Arc::ptr_eq(p, path)) {
             return;
         }
-        if !same_speed {
-            self.cap = None;
-        }
-        self.speed = limits.max_linear;
         let cusps = chassis::follower::cusps(path).len() as f64;
         let per_cusp = CUSP_S + std::f64::consts::PI / limits.max_angular.max(0.05);
-        let time = Duration::from_secs_f64(
-            20.0 + 3.0 * path_length(path) / limits.max_linear.max(0.05) + cusps * per_cusp,
-        );
-        let now = Instant::now();
+        let time =
+            Duration::from_secs_f64(20.0 + 3.0 * path_length(path) / speed + cusps * per_cusp);
         let cap = *self.cap.get_or_insert(now + 3 * time);
         self.deadline = Some((now + time).min(cap));
         self.path = Some(path.clone());
     }
 }
 
+/// `then` as seen from `now`, with the time left until it multiplied by `stretch` (a day at
+/// most: the time of a drive, not a number to overflow).
+fn stretched(now: Instant, then: Instant, stretch: f64) -> Instant {
+    let left = then.saturating_duration_since(now).as_secs_f64() * stretch;
+    now + Duration::from_secs_f64(left.clamp(0.0, 86_400.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A slow zone stretches the time left by the ratio of the speeds; a limit that comes and
+    /// goes gives the drive the time its slow spells cost and no more, however often it flaps
+    /// (a second at a tenth of the speed is worth a tenth of a second's driving).
+    #[test]
+    fn a_speed_limit_stretches_the_time_left_and_a_flapping_one_gives_no_more() {
+        let path = Arc::new(vec![(0.0, 0.0), (30.0, 0.0)]);
+        let fast = TwistLimits::default();
+        let slow = TwistLimits {
+            max_linear: fast.max_linear / 10.0,
+            ..fast
+        };
+        let t0 = Instant::now();
+        let at = |s: f64| t0 + Duration::from_secs_f64(s);
+        let mut plan = Plan::default();
+        plan.update(&path, &fast, t0);
+        // 20 s + 3 x 30 m / 0.6 m/s; the cap three times that.
+        let (deadline, cap) = (plan.deadline.unwrap(), plan.cap.unwrap());
+        assert!((deadline - t0).as_secs_f64() > 169.0 && (deadline - t0).as_secs_f64() < 171.0);
+        assert_eq!(cap - t0, 3 * (deadline - t0));
+
+        plan.update(&path, &slow, at(100.0));
+        let left = plan.deadline.unwrap() - at(100.0);
+        assert!(
+            (left.as_secs_f64() - 700.0).abs() < 0.01,
+            "70 s left, ten times slower: {left:?}"
+        );
+
+        for i in 0..100 {
+            let s = 101.0 + 2.0 * f64::from(i);
+            plan.update(&path, &fast, at(s));
+            plan.update(&path, &slow, at(s + 1.0));
+        }
+        plan.update(&path, &fast, at(301.0));
+        // 101 s spent at a tenth of the speed: the cap moves 0.9 s for each.
+        let drift = (plan.cap.unwrap() - cap).as_secs_f64();
+        assert!(
+            (drift - 90.9).abs() < 0.1,
+            "the flapping limit moved the cap by {drift} s"
+        );
+    }
 
     /// As Nav2's `WouldAControllerRecoveryHelp` and `WouldAPlannerRecoveryHelp`: no progress, no
     /// valid path, a timeout and an unknown error are tried again; a bad goal, a stop or a newer

@@ -91,10 +91,12 @@ pub async fn follow(s: Arc<Shared>, o: Outputs) {
             }
             None => watched = None,
         }
-        // A plan is driven under the speed limit in force; a behaviour's motion under the
-        // chassis' limits (Nav2's behaviours do not take speed limits either).
+        // A plan is driven under the speed limit in force, braked down to within the
+        // acceleration limit when it drops; a behaviour's motion under the chassis' limits
+        // (Nav2's behaviours do not take speed limits either).
         let limits = if s.follower.lock().expect("lock").is_some() {
-            s.drive_limits()
+            let cap = s.drive_limits().max_linear;
+            s.params.twist_limits.lowered_to(cap, previous, dt)
         } else {
             s.params.twist_limits
         };
