@@ -517,6 +517,11 @@ impl RtpsReaderProxy {
     self.pending_gap.extend(gap_sn_set);
   }
 
+  /// patrol-planner patch 7: `seq_num` is sent to this reader after all.
+  pub fn remove_pending_gap(&mut self, seq_num: SequenceNumber) {
+    self.pending_gap.remove(&seq_num);
+  }
+
   pub fn get_pending_gap(&self) -> &BTreeSet<SequenceNumber> {
     &self.pending_gap
   }

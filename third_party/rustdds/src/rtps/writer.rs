@@ -2102,6 +2102,20 @@ impl Writer {
           // before matching with this reader. Therefore we set the reader as pending GAP
           // for all existing sequence numbers
           new_proxy.set_pending_gap_up_to(self.send_buffer.last_change_sequence_number());
+          // patrol-planner patch 7: except replies addressed to this very reader. A
+          // ROS 2 service client's response reader can match the server's response
+          // writer after the client's request has arrived and been answered
+          // (discovery is not symmetric, and slow on a loaded machine); the reply
+          // written before the match was then GAPped and the client waited forever.
+          // rmw_fastrtps waits in rmw_send_response for that match; here the reply
+          // stays deliverable to the reader it names, which asks for it on our
+          // first HEARTBEAT.
+          for sn in self
+            .send_buffer
+            .replies_to(updated_reader_proxy.remote_reader_guid)
+          {
+            new_proxy.remove_pending_gap(sn);
+          }
         }
         new_proxy.resolve_send_route(
           &self.interface_observations.borrow(),
@@ -2741,7 +2755,7 @@ mod tests {
         ddsdata::DDSData,
         qos::{policy::Durability, QosPolicyBuilder},
         statusevents::{sync_status_channel, StatusChannelReceiver},
-        with_key::datawriter::WriteOptions,
+        with_key::datawriter::{WriteOptions, WriteOptionsBuilder},
       },
       discovery::discovery::Discovery,
       messages::submessages::{
@@ -2749,7 +2763,7 @@ mod tests {
       },
       polling::new_shared_timer,
       rtps::writer_send_buffer::Admission,
-      structure::{guid::EntityKind, sequence_number::SequenceNumberSet},
+      structure::{guid::EntityKind, rpc::SampleIdentity, sequence_number::SequenceNumberSet},
       RepresentationIdentifier,
     };
 
@@ -2774,6 +2788,30 @@ mod tests {
         payload_len: usize,
         reader_locator: Option<SocketAddr>,
       ) -> Self {
+        Self::with_samples(
+          writer_id,
+          writer_qos,
+          reader_id,
+          reader_qos,
+          |_| WriteOptions::default(),
+          sample_count,
+          payload_len,
+          reader_locator,
+        )
+      }
+
+      // As `new`, with sample `i` (0-based) written with `write_options(i)`.
+      #[allow(clippy::too_many_arguments)]
+      fn with_samples(
+        writer_id: EntityId,
+        writer_qos: QosPolicies,
+        reader_id: EntityId,
+        reader_qos: &QosPolicies,
+        write_options: impl Fn(i64) -> WriteOptions,
+        sample_count: i64,
+        payload_len: usize,
+        reader_locator: Option<SocketAddr>,
+      ) -> Self {
         let guid = GUID::new(GuidPrefix::new(&[1; 12]), writer_id);
         let send_buffer = WriterSendBuffer::new(
           guid,
@@ -2785,13 +2823,13 @@ mod tests {
           DEFAULT_WRITER_MAX_SAMPLES,
           DEFAULT_WRITER_MAX_SAMPLES,
         );
-        for _ in 0..sample_count {
+        for i in 0..sample_count {
           let data = DDSData::new(SerializedPayload::new(
             RepresentationIdentifier::CDR_LE,
             vec![0; payload_len],
           ));
           assert!(matches!(
-            send_buffer.admit_blocking(WriteOptions::default(), data, Some(StdDuration::ZERO)),
+            send_buffer.admit_blocking(write_options(i), data, Some(StdDuration::ZERO)),
             Admission::Admitted(_)
           ));
         }
@@ -3047,6 +3085,50 @@ mod tests {
       f.writer.udp_sender.flush_control(SocketId::Unicast);
       assert_eq!(f.repair_round(), 5);
       assert!(!f.reader_proxy().repair_mode);
+    }
+
+    // patrol-planner patch 7: a volatile writer does not send a reader what it
+    // wrote before the reader matched, except the replies that name that reader
+    // (a service reply written before the client's response reader matched).
+    #[test]
+    fn a_late_reader_still_gets_the_replies_addressed_to_it() {
+      let qos = QosPolicyBuilder::new()
+        .reliability(Reliability::Reliable {
+          max_blocking_time: Duration::from_millis(100),
+        })
+        .history(History::KeepLast { depth: 10 })
+        .durability(Durability::Volatile)
+        .build();
+      let reader_id = EntityId::new([0, 0, 2], EntityKind::READER_NO_KEY_USER_DEFINED);
+      let late_reader = GUID::new(GuidPrefix::new(&[2; 12]), reader_id);
+      let other_reader = GUID::new(GuidPrefix::new(&[3; 12]), reader_id);
+      // Samples 1..=4: a reply to another client, a reply to the late reader, a
+      // plain sample, another reply to the late reader.
+      let addressees = [Some(other_reader), Some(late_reader), None, Some(late_reader)];
+      let f = Fixture::with_samples(
+        EntityId::new([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+        qos.clone(),
+        reader_id,
+        &qos,
+        |i| match addressees[i as usize] {
+          Some(reader) => WriteOptionsBuilder::new()
+            .related_sample_identity(SampleIdentity {
+              writer_guid: reader,
+              sequence_number: SequenceNumber::new(7),
+            })
+            .build(),
+          None => WriteOptions::default(),
+        },
+        4,
+        8,
+        None,
+      );
+      assert_eq!(f.reader_guid, late_reader);
+      assert_eq!(
+        f.reader_proxy().get_pending_gap(),
+        &BTreeSet::from([SequenceNumber::new(1), SequenceNumber::new(3)]),
+        "the late reader is sent its replies (2 and 4) and a GAP for the rest"
+      );
     }
   }
 }

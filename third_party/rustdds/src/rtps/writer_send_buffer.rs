@@ -375,6 +375,29 @@ impl WriterSendBuffer {
     self.shared.inner.lock().unwrap().changes.get(&sn).cloned()
   }
 
+  /// The retained samples written as replies to `reader`: those whose
+  /// `related_sample_identity` names it, as a ROS 2 service reply names the
+  /// client's response reader (rmw_fastrtps puts that reader's GUID in the
+  /// request's related sample identity, and the server echoes it).
+  ///
+  /// patrol-planner patch 7: see `Writer::matched_reader_update`.
+  pub fn replies_to(&self, reader: GUID) -> Vec<SequenceNumber> {
+    self
+      .shared
+      .inner
+      .lock()
+      .unwrap()
+      .changes
+      .iter()
+      .filter(|(_, cc)| {
+        cc.write_options
+          .related_sample_identity()
+          .is_some_and(|si| si.writer_guid == reader)
+      })
+      .map(|(sn, _)| *sn)
+      .collect()
+  }
+
   /// Evict all samples with sequence number strictly less than `remove_before`.
   pub fn remove_changes_before(&self, remove_before: SequenceNumber) {
     let shared = &*self.shared;
