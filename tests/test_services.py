@@ -249,8 +249,15 @@ def test_load_map_switches_maps_as_map_server_does(ros, tmp_path):
     (nav2_simple_commander's changeMap()): another floor's map is loaded, latched on /map,
     returned and planned on at once; a missing file, a YAML with bad fields, an unreadable image
     and a URL that is not a path get map_server's result codes (1, 3, 2, 1), and the loaded map
-    stays. The bundled map is loaded back at the end, by a file:// URL."""
+    stays. The bundled map is loaded back at the end, by a file:// URL. All along,
+    `map_server/map` (nav_msgs GetMap) answers with the map in force, as map_server does."""
     from nav2_msgs.srv import LoadMap
+    from nav_msgs.srv import GetMap
+
+    def served():
+        return call_service(ros, GetMap, "/map_server/map", GetMap.Request()).map.info
+
+    assert (served().width, served().height) == (100, 100), "GetMap before any load_map: the bundled map"
 
     # Another floor: 6 m x 3 m at 0.1 m, origin (-1, -2), a block across the middle, open at
     # the top (map_server's PGM: white free, black occupied; rows from the top).
@@ -281,6 +288,8 @@ def test_load_map_switches_maps_as_map_server_does(ros, tmp_path):
         assert (info.origin.position.x, info.origin.position.y) == (-1.0, -2.0)
         assert r.map.header.frame_id == "map" and list(r.map.data).count(100) == 20 * 4
         ros.spin_until(lambda: any(m.info.width == 60 and m.info.height == 30 for m in maps), 10, "the loaded map on /map")
+        got = served()
+        assert (got.width, got.height, got.origin.position.x) == (60, 30, -1.0), got
         path = across()
         assert path.poses, "no plan on the loaded map"
         assert max(p.pose.position.y for p in path.poses) > -2.0 + 2.0, "the plan went through the block"
@@ -294,8 +303,10 @@ def test_load_map_switches_maps_as_map_server_does(ros, tmp_path):
         ]:
             assert load(url).result == code, url
             assert across().poses, f"the loaded map did not stay after {url}"
+        assert (served().width, served().height) == (60, 30), "GetMap after refused loads: the loaded map"
     finally:
         r = load("file://" + str(ROOT / "config" / "maps" / "datacenter_100.yaml"))
         ros.node.destroy_subscription(sub)
     assert r.result == LoadMap.Response.RESULT_SUCCESS
     assert (r.map.info.width, r.map.info.height) == (100, 100)
+    assert (served().width, served().height) == (100, 100)

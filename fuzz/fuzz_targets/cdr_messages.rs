@@ -21,7 +21,7 @@ use patrol_msgs::nav2_msgs::{
     FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest, LoadMapRequest,
     NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
-use patrol_msgs::nav_msgs::{GetPlanRequest, OccupancyGrid, Odometry};
+use patrol_msgs::nav_msgs::{GetMapRequest, GetPlanRequest, OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
 use planner_core::geometry::Pose2;
 use planner_core::grid::map::DEFAULT_MAX_CELLS;
@@ -70,7 +70,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 23 {
+    match selector % 24 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -130,6 +130,7 @@ fuzz_target!(|data: &[u8]| {
             }
         }
         21 => drop(round_trip::<SpeedLimit>(payload)),
+        22 => drop(round_trip::<GetMapRequest>(payload)),
         _ => drop(round_trip::<ChangeStateRequest>(payload)),
     }
 });

@@ -272,12 +272,25 @@ pub mod nav_msgs {
     pub struct GetPlanResponse {
         pub plan: Path,
     }
+    /// nav_msgs/srv/GetMap request (map_server's `map_server/map`): empty, and rosidl gives an
+    /// empty structure one placeholder byte
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct GetMapRequest {
+        pub structure_needs_at_least_one_member: u8,
+    }
+    /// nav_msgs/srv/GetMap response: the map the map server serves
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct GetMapResponse {
+        pub map: OccupancyGrid,
+    }
     messages!(
         OccupancyGrid,
         Path,
         Odometry,
         GetPlanRequest,
-        GetPlanResponse
+        GetPlanResponse,
+        GetMapRequest,
+        GetMapResponse
     );
 }
 

@@ -638,6 +638,24 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::LOAD_MAP_RESPONSE,
     );
+    check("GetMap request", GetMapRequest::default(), g::GET_MAP_REQUEST);
+    check(
+        "GetMap response",
+        GetMapResponse {
+            map: patrol_msgs::nav_msgs::OccupancyGrid {
+                header: header(),
+                info: patrol_msgs::nav_msgs::MapMetaData {
+                    map_load_time: t(0, 0),
+                    resolution: 0.05,
+                    width: 3,
+                    height: 1,
+                    origin: pose_at(1.5, -2.25),
+                },
+                data: vec![0, 100, -1],
+            },
+        },
+        g::GET_MAP_RESPONSE,
+    );
     check(
         "Wait result",
         BehaviorResult {

@@ -8,7 +8,7 @@ from std_msgs.msg import Header, ColorRGBA, Float64MultiArray, MultiArrayDimensi
 from geometry_msgs.msg import (Point, Pose, PoseStamped, PoseWithCovarianceStamped, Quaternion,
                                Transform, TransformStamped, Twist, TwistStamped, Vector3)
 from nav_msgs.msg import OccupancyGrid, Path, Odometry
-from nav_msgs.srv import GetPlan
+from nav_msgs.srv import GetMap, GetPlan
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
@@ -165,6 +165,8 @@ def messages():
     grid.info.origin = pose()
     grid.data = [0, 100, -1]
     out["LOAD_MAP_RESPONSE"] = LoadMap.Response(map=grid, result=LoadMap.Response.RESULT_INVALID_MAP_DATA)
+    out["GET_MAP_REQUEST"] = GetMap.Request()
+    out["GET_MAP_RESPONSE"] = GetMap.Response(map=grid)
     return out
 
 

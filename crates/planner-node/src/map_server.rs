@@ -1,7 +1,9 @@
 //! The node as its own map server, when it loads its map itself (`map_yaml`): the map latched on
-//! `/map`, and map_server's `map_server/load_map` (nav2_msgs/srv/LoadMap), which
+//! `/map`, map_server's `map_server/load_map` (nav2_msgs/srv/LoadMap), which
 //! nav2_simple_commander's `changeMap()` calls to switch maps (another floor of a substation,
-//! another equipment room) without restarting anything.
+//! another equipment room) without restarting anything, and `map_server/map`
+//! (nav_msgs/srv/GetMap), which hands the map to whoever asks for it rather than subscribing
+//! (`ros2 service call`, tools, a localizer started late).
 //!
 //! A map is read, made the planning grid, and only then published and answered: a file that
 //! cannot be read, or a map the node cannot plan on, is refused with map_server's result code
@@ -18,12 +20,33 @@ use crate::planning::install_map;
 use crate::state::{GoalSlot, Shared};
 use log::{info, warn};
 use patrol_msgs::nav2_msgs::{LoadMapRequest, LoadMapResponse};
-use patrol_msgs::nav_msgs::OccupancyGrid;
+use patrol_msgs::nav_msgs::{GetMapRequest, GetMapResponse, OccupancyGrid};
 use planner_io::LoadError;
 use ros2_client::{Publisher, Server};
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 use tokio::sync::watch;
+
+/// What the node serves as map server: the publisher latching `/map`, and the map it last
+/// latched there, which `map_server/map` answers with.
+pub struct MapServer {
+    pub map_pub: Arc<Publisher<OccupancyGrid>>,
+    served: RwLock<Option<OccupancyGrid>>,
+}
+
+impl MapServer {
+    pub fn new(map_pub: Arc<Publisher<OccupancyGrid>>) -> Self {
+        Self {
+            map_pub,
+            served: RwLock::new(None),
+        }
+    }
+
+    /// The map last latched on `/map`, if one has been.
+    fn served(&self) -> Option<OccupancyGrid> {
+        self.served.read().expect("lock").clone()
+    }
+}
 
 /// Why a map was not loaded: map_server's result code (LoadMap's `RESULT_*`) and the reason.
 #[derive(Debug)]
@@ -78,7 +101,7 @@ pub enum Asked<'a> {
 /// Refused, nothing changes (but see [`Asked::Startup`]).
 pub async fn load(
     s: &Arc<Shared>,
-    map_pub: &Publisher<OccupancyGrid>,
+    server: &MapServer,
     path: &str,
     asked: Asked<'_>,
 ) -> Result<OccupancyGrid, Refused> {
@@ -117,7 +140,8 @@ pub async fn load(
             (None, Asked::Startup) => warn!("{path}: served on /map, but not planned on"),
         }
     }
-    if let Err(e) = map_pub.async_publish(msg.clone()).await {
+    *server.served.write().expect("lock") = Some(msg.clone());
+    if let Err(e) = server.map_pub.async_publish(msg.clone()).await {
         warn!("publishing the map on /map: {e:?}");
     }
     Ok(msg)
@@ -129,7 +153,7 @@ pub async fn load(
 /// stays. While the node is not active, `RESULT_UNDEFINED_FAILURE`, as map_server answers.
 pub async fn serve_load_map(
     s: Arc<Shared>,
-    map_pub: Arc<Publisher<OccupancyGrid>>,
+    map_server: Arc<MapServer>,
     server: Server<LoadMapRequest, LoadMapResponse>,
     slot: watch::Sender<GoalSlot>,
 ) {
@@ -144,7 +168,7 @@ pub async fn serve_load_map(
                 reason: f.message,
             }),
             (None, Err(refused)) => Err(refused),
-            (None, Ok(path)) => load(&s, &map_pub, &path, Asked::Request(&slot)).await,
+            (None, Ok(path)) => load(&s, &map_server, &path, Asked::Request(&slot)).await,
         };
         let response = match answer {
             Ok(map) => {
@@ -167,6 +191,39 @@ pub async fn serve_load_map(
         };
         if let Err(e) = server.async_send_response(id, response).await {
             warn!("load_map response: {e:?}");
+        }
+    }
+}
+
+/// `map_server/map` (nav_msgs/srv/GetMap), as map_server serves it: the map last latched on
+/// `/map` (the one loaded at startup or by `load_map`). While the node is not active, or before
+/// any map loaded, an empty map, with the reason in the log (map_server answers an inactive
+/// request with an empty response too; GetMap has no field to say why).
+pub async fn serve_get_map(
+    s: Arc<Shared>,
+    map_server: Arc<MapServer>,
+    server: Server<GetMapRequest, GetMapResponse>,
+) {
+    loop {
+        let Ok((id, _)) = server.async_receive_request().await else {
+            continue;
+        };
+        let map = match (s.refusal(), map_server.served()) {
+            (Some(f), _) => {
+                warn!("map_server/map: answered with an empty map: {}", f.message);
+                OccupancyGrid::default()
+            }
+            (None, None) => {
+                warn!("map_server/map: answered with an empty map: no map loaded (map_yaml)");
+                OccupancyGrid::default()
+            }
+            (None, Some(map)) => map,
+        };
+        if let Err(e) = server
+            .async_send_response(id, GetMapResponse { map })
+            .await
+        {
+            warn!("map_server/map response: {e:?}");
         }
     }
 }

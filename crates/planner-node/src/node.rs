@@ -53,7 +53,9 @@ use patrol_msgs::nav2_msgs::{
     NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback,
     SpinGoal, WaitFeedback, WaitGoal,
 };
-use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
+use patrol_msgs::nav_msgs::{
+    GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
+};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::params::ParamError;
@@ -566,9 +568,10 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // The bundled map, loaded by the node itself and latched on /map; with it, the node is the
     // map server, and map_server's load_map switches maps (map_server.rs).
     if !params.map_yaml.is_empty() {
+        let map_server = Arc::new(map_server::MapServer::new(map_pub.clone()));
         if let Err(refused) = map_server::load(
             &shared,
-            &map_pub,
+            &map_server,
             &params.map_yaml,
             map_server::Asked::Startup,
         )
@@ -585,9 +588,21 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         )?;
         tasks.spawn(map_server::serve_load_map(
             shared.clone(),
-            map_pub.clone(),
+            map_server.clone(),
             load_map,
             goal_tx.clone(),
+        ));
+        let get_map = node.create_server::<GetMapRequest, GetMapResponse>(
+            ServiceMapping::Enhanced,
+            &naming.name("map_server/map")?,
+            &ServiceTypeName::new("nav_msgs", "GetMap"),
+            ros_edge::reliable(10, Durability::Volatile),
+            ros_edge::reliable(10, Durability::Volatile),
+        )?;
+        tasks.spawn(map_server::serve_get_map(
+            shared.clone(),
+            map_server,
+            get_map,
         ));
     }
 
