@@ -14,6 +14,8 @@ sends between full costmaps unless `always_send_full_costmap`): a band written b
 avoided by the next plan; an update outside the costmap is refused on /diagnostics and changes
 nothing; and `costmap.inflation_radius`, which shapes only the node's own inflation of a map, is
 refused a new value on a costmap topic, with the reason."""
+import time
+
 import numpy as np
 import rclpy
 from map_msgs.msg import OccupancyGridUpdate
@@ -245,6 +247,72 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
 
         mask_pub.publish(grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2))
         ros.spin_until(lambda: through_zone(plan()), 20, "the way free again under an empty mask")
+    finally:
+        ros.close()
+        stop_binary(proc)
+
+
+def test_the_keepout_mask_is_found_through_nav2s_filter_info(tmp_path):
+    """Nav2's keepout filter finds its mask through `filter_info_topic` (a CostmapFilterInfo
+    latched by costmap_filter_info_server): the node follows the info to its mask topic, refuses
+    a speed filter's info on /diagnostics (staying on the topic it had), and moves to a new
+    info's topic, keeping the last good mask until that topic's first mask arrives."""
+    from nav2_msgs.msg import CostmapFilterInfo
+
+    info_topic = "/costmap_filter_info"
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
+        f"    keepout_filter_info_topic: {info_topic}\n"
+    )
+    domain = domain_id(36)
+    proc = start_node(domain, params, "keepout_info_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        info_pub = ros.node.create_publisher(CostmapFilterInfo, info_topic, LATCHED)
+        first = ros.node.create_publisher(OccupancyGrid, "/keepout_first", LATCHED)
+        second = ros.node.create_publisher(OccupancyGrid, "/keepout_second", LATCHED)
+        ros.wait_matched(ros.map_pub, "/map")
+        ros.map_pub.publish(grid_msg(np.zeros((60, 100), dtype=np.int8), origin=(0.0, 0.0), res=RES))
+
+        def plan():
+            req = GetPlan.Request(start=stamped(1.0, 2.0), goal=stamped(9.0, 2.0), tolerance=0.0)
+            return call_service(ros, GetPlan, "/patrol_planner/make_plan", req).plan.poses
+
+        def through_zone(poses):
+            return [p for p in poses if 4.0 <= p.pose.position.x <= 6.0 and p.pose.position.y <= 4.5]
+
+        def info(kind, topic):
+            return CostmapFilterInfo(type=kind, filter_mask_topic=topic, base=0.0, multiplier=1.0)
+
+        ros.spin_until(lambda: plan(), 30, "a plan on the open map")
+        # The zone of the test above on the first mask topic; nothing on it yet reaches the node
+        # until the info names the topic.
+        zone = np.zeros((30, 25), dtype=np.int8)
+        zone[0:23, 5:15] = 100
+        first.publish(grid_msg(zone, origin=(3.0, 0.0), res=0.2))
+        assert through_zone(plan()), "no info yet: no mask"
+        ros.wait_matched(info_pub, info_topic)
+        info_pub.publish(info(0, "/keepout_first"))
+        ros.spin_until(lambda: (lambda p: p if p and not through_zone(p) else None)(plan()), 20,
+                       "a plan round the zone of the mask the info names")
+
+        i = len(ros.diagnostics)
+        info_pub.publish(info(1, "/speed_filter_mask"))
+        code, why, _ = ros.wait_code(i, "INVALID_INPUT")
+        assert "filter info" in why and "speed filter" in why, why
+        assert plan() and not through_zone(plan()), "the mask topic it had stays"
+
+        # A new info: the first topic's mask stays in force until the second topic's arrives.
+        info_pub.publish(info(0, "/keepout_second"))
+        ros.spin_until(lambda: second.get_subscription_count() > 0, 20, "the node on the second topic")
+        assert plan() and not through_zone(plan()), "the last good mask until the new topic's first"
+        second.publish(grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2))
+        ros.spin_until(lambda: through_zone(plan()), 20, "the way free under the second topic's empty mask")
+        first.publish(grid_msg(zone, origin=(3.0, 0.0), res=0.2))
+        settle = time.monotonic() + 1.0
+        ros.spin_until(lambda: time.monotonic() > settle, 5, "a second for a stray mask to arrive")
+        assert through_zone(plan()), "the first topic no longer read"
     finally:
         ros.close()
         stop_binary(proc)

@@ -19,7 +19,7 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     BackUpGoal, ComputePathThroughPosesGoal, ComputePathToPoseGoal, DriveOnHeadingGoal,
     FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest, LoadMapRequest,
-    NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
+    CostmapFilterInfo, NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetMapRequest, GetPlanRequest, OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -70,7 +70,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 24 {
+    match selector % 25 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -131,6 +131,11 @@ fuzz_target!(|data: &[u8]| {
         }
         21 => drop(round_trip::<SpeedLimit>(payload)),
         22 => drop(round_trip::<GetMapRequest>(payload)),
+        23 => {
+            if let Some(info) = round_trip::<CostmapFilterInfo>(payload) {
+                assert!(info.filter_mask_topic.len() <= payload.len());
+            }
+        }
         _ => drop(round_trip::<ChangeStateRequest>(payload)),
     }
 });

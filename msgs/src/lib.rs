@@ -473,6 +473,25 @@ pub mod nav2_msgs {
         pub percentage: bool,
         pub speed_limit: f64,
     }
+    /// nav2_msgs/msg/CostmapFilterInfo: what Nav2's costmap_filter_info_server latches for a
+    /// costmap filter: its kind (`type`: [`CostmapFilterInfo::KEEPOUT`], or a speed filter), the
+    /// topic of its mask, and how mask values map to the filter's (`base + value * multiplier`)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct CostmapFilterInfo {
+        pub header: super::std_msgs::Header,
+        pub r#type: u8,
+        pub filter_mask_topic: String,
+        pub base: f32,
+        pub multiplier: f32,
+    }
+    impl CostmapFilterInfo {
+        /// A keepout (or lanes) filter: its mask's occupancy is the cost laid over the costmap.
+        pub const KEEPOUT: u8 = 0;
+        /// A speed filter, its mask in percent of the top speed.
+        pub const SPEED_PERCENT: u8 = 1;
+        /// A speed filter, its mask in m/s.
+        pub const SPEED_ABSOLUTE: u8 = 2;
+    }
     /// nav2_msgs/srv/LoadMap request (map_server's `load_map`): the map's YAML, a path
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct LoadMapRequest {
@@ -554,6 +573,7 @@ pub mod nav2_msgs {
         GetCostmapResponse,
         LoadMapRequest,
         LoadMapResponse,
+        CostmapFilterInfo,
         SpeedLimit,
         SpinGoal,
         BehaviorResult,

@@ -614,6 +614,17 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         g::SPEED_LIMIT,
     );
     check(
+        "CostmapFilterInfo",
+        CostmapFilterInfo {
+            header: header(),
+            r#type: CostmapFilterInfo::SPEED_PERCENT,
+            filter_mask_topic: "/speed_filter_mask".into(),
+            base: 100.0,
+            multiplier: -1.0,
+        },
+        g::COSTMAP_FILTER_INFO,
+    );
+    check(
         "LoadMap request",
         LoadMapRequest {
             map_url: "/maps/floor2.yaml".into(),
@@ -638,7 +649,11 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::LOAD_MAP_RESPONSE,
     );
-    check("GetMap request", GetMapRequest::default(), g::GET_MAP_REQUEST);
+    check(
+        "GetMap request",
+        GetMapRequest::default(),
+        g::GET_MAP_REQUEST,
+    );
     check(
         "GetMap response",
         GetMapResponse {

@@ -18,7 +18,7 @@ from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose
                               FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import GetCostmap, IsPathValid, LoadMap
-from nav2_msgs.msg import Costmap, CostmapMetaData, SpeedLimit
+from nav2_msgs.msg import Costmap, CostmapFilterInfo, CostmapMetaData, SpeedLimit
 
 
 def header(frame="map"):
@@ -167,6 +167,8 @@ def messages():
     out["LOAD_MAP_RESPONSE"] = LoadMap.Response(map=grid, result=LoadMap.Response.RESULT_INVALID_MAP_DATA)
     out["GET_MAP_REQUEST"] = GetMap.Request()
     out["GET_MAP_RESPONSE"] = GetMap.Response(map=grid)
+    out["COSTMAP_FILTER_INFO"] = CostmapFilterInfo(
+        header=header(), type=1, filter_mask_topic="/speed_filter_mask", base=100.0, multiplier=-1.0)
     return out
 
 

@@ -98,6 +98,13 @@ pub struct NodeParams {
     /// the current grid at once. Not with `costmap_topic`, whose costmap has its own filters.
     /// Empty (default): none.
     pub keepout_mask_topic: String,
+    /// Where Nav2's keepout filter finds its mask (its `filter_info_topic`, e.g.
+    /// `/costmap_filter_info`): a nav2_msgs/CostmapFilterInfo, latched by Nav2's
+    /// costmap_filter_info_server, names the mask topic, and the node takes its masks from
+    /// there as from `keepout_mask_topic`, following the info to a new topic when it changes.
+    /// Either this or `keepout_mask_topic`, not both; not with `costmap_topic`. Empty
+    /// (default): none.
+    pub keepout_filter_info_topic: String,
     /// controller_server's `speed_limit_topic`: the speed limits (nav2_msgs/SpeedLimit) the
     /// follower drives under, as Nav2's speed filter publishes them for its zones (in percent of
     /// `twist_limits.max_linear` or in m/s; 0 lifts the limit). Only with `follow_plan`. Empty:
@@ -229,6 +236,7 @@ impl Default for NodeParams {
             bond_heartbeat_period: 0.1,
             costmap_topic: String::new(),
             keepout_mask_topic: String::new(),
+            keepout_filter_info_topic: String::new(),
             speed_limit_topic: "speed_limit".into(),
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
@@ -300,10 +308,21 @@ impl NodeParams {
         if !within(self.behavior_server.simulate_ahead_time, 0.0, 10.0) {
             return Err("behavior_server: simulate_ahead_time within 0..=10 s".into());
         }
-        if !self.keepout_mask_topic.is_empty() && !self.costmap_topic.is_empty() {
+        for (key, topic) in [
+            ("keepout_mask_topic", &self.keepout_mask_topic),
+            ("keepout_filter_info_topic", &self.keepout_filter_info_topic),
+        ] {
+            if !topic.is_empty() && !self.costmap_topic.is_empty() {
+                return Err(format!(
+                    "{key} (`{topic}`) lays a mask over the node's own costmap, and with costmap_topic (`{}`) the node plans on another's: add Nav2's KeepoutFilter to that costmap instead, or leave costmap_topic empty",
+                    self.costmap_topic
+                ));
+            }
+        }
+        if !self.keepout_mask_topic.is_empty() && !self.keepout_filter_info_topic.is_empty() {
             return Err(format!(
-                "keepout_mask_topic (`{}`) lays a mask over the node's own costmap, and with costmap_topic (`{}`) the node plans on another's: add Nav2's KeepoutFilter to that costmap instead, or leave costmap_topic empty",
-                self.keepout_mask_topic, self.costmap_topic
+                "keepout_mask_topic (`{}`) and keepout_filter_info_topic (`{}`) both name the keepout mask: set one (the filter info names its mask topic itself)",
+                self.keepout_mask_topic, self.keepout_filter_info_topic
             ));
         }
         if !self.map_to_odom.iter().all(|v| v.is_finite()) {
@@ -768,6 +787,35 @@ mod tests {
             err.contains("keepout_mask_topic") && err.contains("KeepoutFilter"),
             "{err}"
         );
+        // The mask's topic from Nav2's filter info instead: not beside a mask topic too.
+        let info = write(
+            "info.yaml",
+            "    keepout_filter_info_topic: /costmap_filter_info\n",
+        );
+        assert_eq!(
+            load_parameter_file(&info)
+                .unwrap()
+                .node
+                .keepout_filter_info_topic,
+            "/costmap_filter_info"
+        );
+        for (name, block, key) in [
+            (
+                "info_and_mask.yaml",
+                "    keepout_filter_info_topic: /info\n    keepout_mask_topic: /mask\n",
+                "both name the keepout mask",
+            ),
+            (
+                "info_and_costmap.yaml",
+                "    keepout_filter_info_topic: /info\n    costmap_topic: /global_costmap/costmap\n",
+                "keepout_filter_info_topic (`/info`)",
+            ),
+        ] {
+            let err = load_parameter_file(&write(name, block))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key), "{name}: {err}");
+        }
         let bad = write("rate.yaml", "    control_rate_hz: -1.0\n");
         assert!(load_parameter_file(&bad)
             .unwrap_err()

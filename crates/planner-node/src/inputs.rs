@@ -206,57 +206,6 @@ pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>
     }
 }
 
-/// The keepout masks on `keepout_mask_topic`, as Nav2's keepout filter takes its mask: each one
-/// checked (a map's bounds and cell cap; in the global frame, as this node has no transform to
-/// lay a mask of another frame by) and kept for every grid made from now on; the current grid
-/// is made again under it at once, and the path being followed checked against it
-/// ([`remake_grid_on_change`]): a path through a new keepout zone is planned again. A mask
-/// refused is reported on `/diagnostics` and the last good one stays.
-pub async fn receive_keepout_masks(s: Arc<Shared>, o: Outputs, sub: Subscription<OccupancyGrid>) {
-    let topic = s.params.keepout_mask_topic.clone();
-    loop {
-        let msg = match sub.async_take().await {
-            Ok((msg, _)) => msg,
-            Err(e) => {
-                warn!("{topic}: {e:?}");
-                continue;
-            }
-        };
-        let frame = msg.header.frame_id.clone();
-        let global = s.params.global_frame.clone();
-        let checked = tokio::task::spawn_blocking(move || {
-            if !frame.is_empty() && frame != global {
-                return Err(format!(
-                    "the mask is in frame `{frame}` and the node plans in `{global}`: publish it in `{global}`"
-                ));
-            }
-            convert::grid_from_msg(&msg).map_err(|e| e.to_string())
-        })
-        .await;
-        match checked {
-            Ok(Ok(mask)) => {
-                let info = *mask.info();
-                *s.keepout.write().expect("lock") = Some(Arc::new(mask));
-                info!(
-                    "keepout mask from {topic}: {} x {} cells of {:.3} m",
-                    info.width, info.height, info.resolution
-                );
-                s.settings_changed.notify_one();
-            }
-            Ok(Err(why)) => {
-                let planner = s.live.read().expect("lock").planner;
-                let f = Failure::new(
-                    ResultCode::InvalidInput,
-                    format!("keepout mask on {topic} refused, keeping the last good one: {why}"),
-                );
-                warn!("{}", f.message);
-                o.diagnose(&s, &Outcome::failed(planner, 0, f)).await;
-            }
-            Err(e) => error!("keepout mask task: {e}"),
-        }
-    }
-}
-
 /// The speed limits on `speed_limit_topic`, as controller_server takes them for its controller
 /// (Nav2's speed filter publishes one as the robot enters or leaves a slow zone): in percent of
 /// the top speed or in m/s, 0 lifting the limit; the follower drives every plan under the one

@@ -12,6 +12,7 @@ mod convert;
 mod drive;
 mod follow;
 mod inputs;
+mod keepout;
 mod lifecycle;
 mod lifecycle_services;
 mod localization;

@@ -219,10 +219,7 @@ pub async fn serve_get_map(
             }
             (None, Some(map)) => map,
         };
-        if let Err(e) = server
-            .async_send_response(id, GetMapResponse { map })
-            .await
-        {
+        if let Err(e) = server.async_send_response(id, GetMapResponse { map }).await {
             warn!("map_server/map response: {e:?}");
         }
     }

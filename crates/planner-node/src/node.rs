@@ -12,6 +12,7 @@
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
+//! | in | `keepout_filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set; then the mask topic it names, as above) |
 //! | out | `/map` | nav_msgs/OccupancyGrid | reliable, transient local (only with `map_yaml`) |
 //! | out | `/plan` | nav_msgs/Path | reliable, transient local, depth 1 |
 //! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
@@ -28,6 +29,7 @@
 use crate::actions;
 use crate::follow;
 use crate::inputs;
+use crate::keepout;
 use crate::lifecycle_services;
 use crate::map_server;
 use crate::outputs::{CmdVel, Outputs};
@@ -46,9 +48,9 @@ use patrol_msgs::lifecycle_msgs::{
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     BackUpFeedback, BackUpGoal, BehaviorResult, ComputePathResult, ComputePathThroughPosesGoal,
-    ComputePathToPoseGoal, DriveOnHeadingGoal, EmptyFeedback, FollowWaypointsFeedback,
-    FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest, GetCostmapResponse,
-    IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
+    ComputePathToPoseGoal, CostmapFilterInfo, DriveOnHeadingGoal, EmptyFeedback,
+    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest,
+    GetCostmapResponse, IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
     NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
     NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback,
     SpinGoal, WaitFeedback, WaitGoal,
@@ -333,6 +335,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             &latched,
         )?;
         Some(node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?)
+    };
+    // Or Nav2's costmap_filter_info_server names the mask topic, latched (keepout.rs).
+    let filter_info_sub = if params.keepout_filter_info_topic.is_empty() {
+        None
+    } else {
+        let t = topic(
+            &mut node,
+            &params.keepout_filter_info_topic,
+            "nav2_msgs",
+            "CostmapFilterInfo",
+            &latched,
+        )?;
+        Some(node.create_subscription::<CostmapFilterInfo>(&t, Some(latched.clone()))?)
     };
     let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
@@ -629,9 +644,10 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         tasks.spawn(inputs::receive_speed_limits(shared.clone(), sub));
     }
     if let Some(sub) = keepout_sub {
-        tasks.spawn(inputs::receive_keepout_masks(
+        tasks.spawn(keepout::receive_masks(
             shared.clone(),
             out.clone(),
+            params.keepout_mask_topic.clone(),
             sub,
         ));
     }
@@ -693,6 +709,18 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         out.clone(),
         server,
     ));
+    // From here on the node is shared: the keepout filter info subscribes to the mask topics
+    // it names as they come.
+    let node = Arc::new(std::sync::Mutex::new(node));
+    if let Some(sub) = filter_info_sub {
+        tasks.spawn(keepout::receive_filter_info(
+            shared.clone(),
+            out.clone(),
+            node.clone(),
+            naming.clone(),
+            sub,
+        ));
+    }
 
     info!(
         "patrol_planner ready on ROS_DOMAIN_ID {domain}: planner {}, frame {}",
@@ -709,7 +737,8 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     }
     ros_edge::logging::stop_forwarding();
     // Dropping the node stops its spinner, which holds the node's own endpoints (parameter
-    // services, rosout); they must go before the participant does, when `context` drops.
+    // services, rosout); they must go before the participant does, when `context` drops. The
+    // tasks that shared it have ended, so this is the last of it.
     drop(node);
     let _ = spinner.await;
     Ok(())
