@@ -19,7 +19,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
   recovers ComputePathToPose), and reached once a new map opens the way; so is one whose path a
   new map blocks and whose replan fails.
 - A speed limit on `speed_limit` (nav2_msgs/SpeedLimit, as Nav2's speed filter sends it) slows
-  the drive; 0 lifts it.
+  the drive; 0 lifts it. A speed zone, as Nav2's speed filter makes one from the mask its
+  CostmapFilterInfo names, slows the drive inside it and only there.
 - The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
   room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
@@ -90,6 +91,7 @@ def rig(tmp_path):
         '    map_yaml: ""\n    planner: astar\n'
         f"    progress_checker: {{movement_time_allowance: {ALLOWANCE}}}\n"
         f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
+        "    speed_filter_info_topic: /speed_filter_info\n"
     )
     proc = start_node(domain, params, "patrol_planner_recovery_test.log")
     ros = Ros(domain, context=rclpy.Context())
@@ -278,6 +280,47 @@ def test_a_speed_limit_slows_the_drive_as_controller_server_takes_it(rig):
     r, _ = navigate(ros, client, START, lambda f: None, 60)
     assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
     assert max(c.linear.x for c in robot.cmds) > 0.5, "the limit was not lifted"
+
+
+def test_a_speed_zone_slows_the_drive_inside_it_as_nav2s_speed_filter(rig):
+    """Nav2's speed filter: costmap_filter_info_server latches a CostmapFilterInfo (type 1,
+    percent; base 0, multiplier 1) naming the speed mask's topic, and a filter mask server
+    latches the mask there. With a 50 zone across the room at x 2.0-3.5 m the drive to the goal
+    is capped at 0.3 m/s inside it (once braked down from 0.6) and not before it; on the way
+    back the limit is lifted where the mask is 0 and comes again in the zone."""
+    from nav2_msgs.msg import CostmapFilterInfo
+    from nav_msgs.msg import OccupancyGrid
+
+    from conftest import LATCHED
+
+    ros, robot, client = rig
+    robot.blocked = False
+    seen = []
+    ros.node.create_subscription(Twist, "/cmd_vel", lambda c: seen.append((robot.x, c.linear.x)), 100)
+    info_pub = ros.node.create_publisher(CostmapFilterInfo, "/speed_filter_info", LATCHED)
+    mask_pub = ros.node.create_publisher(OccupancyGrid, "/speed_filter_mask", LATCHED)
+    mask = np.zeros((30, 60), dtype=np.int8)
+    mask[:, 20:35] = 50
+    mask_pub.publish(grid_msg(mask, (0.0, 0.0), 0.1))
+    ros.wait_matched(info_pub, "/speed_filter_info")
+    info_pub.publish(CostmapFilterInfo(type=1, filter_mask_topic="/speed_filter_mask", base=0.0, multiplier=1.0))
+    ros.spin_until(lambda: mask_pub.get_subscription_count() > 0, 20, "the node on the speed mask's topic")
+    ros.spin_for(0.5)
+
+    def fastest(cmds, lo, hi):
+        return max((v for x, v in cmds if lo <= x <= hi), default=None)
+
+    r, _ = navigate(ros, client, GOAL, lambda f: None, 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
+    there = list(seen)
+    assert fastest(there, 1.0, 2.0) > 0.5, "no limit before the zone"
+    assert 0.25 < fastest(there, 2.5, 3.5) <= 0.3 + 1e-9, fastest(there, 2.5, 3.5)
+    seen.clear()
+    r, _ = navigate(ros, client, START, lambda f: None, 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
+    back = list(seen)
+    assert fastest(back, 3.6, 4.4) > 0.5, "the limit lifted off the zone"
+    assert fastest(back, 2.0, 3.0) <= 0.3 + 1e-9, fastest(back, 2.0, 3.0)
 
 
 def test_the_behavior_servers_actions(rig):

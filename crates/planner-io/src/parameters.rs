@@ -110,6 +110,13 @@ pub struct NodeParams {
     /// `twist_limits.max_linear` or in m/s; 0 lifts the limit). Only with `follow_plan`. Empty:
     /// none.
     pub speed_limit_topic: String,
+    /// Speed zones, as Nav2's SpeedFilter makes them (its `filter_info_topic`, e.g.
+    /// `/speed_filter_info`): the nav2_msgs/CostmapFilterInfo a costmap_filter_info_server
+    /// latches (type 1, percent of the top speed, or 2, m/s) names the speed mask's topic; the
+    /// mask's cell under the robot, as `base + value * multiplier`, is the limit the follower
+    /// drives under (0 no limit), as if sent on `speed_limit_topic`. Only with `follow_plan`.
+    /// Empty (default): none.
+    pub speed_filter_info_topic: String,
     /// follow_waypoints: put the waypoints in the fastest order before driving them (the route
     /// planner's), instead of the order given.
     pub order_waypoints: bool,
@@ -238,6 +245,7 @@ impl Default for NodeParams {
             keepout_mask_topic: String::new(),
             keepout_filter_info_topic: String::new(),
             speed_limit_topic: "speed_limit".into(),
+            speed_filter_info_topic: String::new(),
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
             stop_on_failure: false,

@@ -238,7 +238,7 @@ pub async fn receive_speed_limits(s: Arc<Shared>, sub: Subscription<SpeedLimit>)
 /// (`setSpeedLimit`): `Some(None)` for 0 (no limit), else `Some` of the top speed in m/s (a
 /// percentage of `max_linear`, or the value); `None` for a value that is not a finite,
 /// non-negative number.
-fn speed_cap(msg: &SpeedLimit, max_linear: f64) -> Option<Option<f64>> {
+pub fn speed_cap(msg: &SpeedLimit, max_linear: f64) -> Option<Option<f64>> {
     let v = msg.speed_limit;
     if !v.is_finite() || v < 0.0 {
         return None;

@@ -13,6 +13,7 @@
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
 //! | in | `keepout_filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set; then the mask topic it names, as above) |
+//! | in | `speed_filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set, with `follow_plan`; then the mask topic it names) |
 //! | out | `/map` | nav_msgs/OccupancyGrid | reliable, transient local (only with `map_yaml`) |
 //! | out | `/plan` | nav_msgs/Path | reliable, transient local, depth 1 |
 //! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
@@ -27,9 +28,9 @@
 //! `/diagnostics` status with the reason.
 
 use crate::actions;
+use crate::costmap_filters::{self, Filter};
 use crate::follow;
 use crate::inputs;
-use crate::keepout;
 use crate::lifecycle_services;
 use crate::map_server;
 use crate::outputs::{CmdVel, Outputs};
@@ -336,19 +337,26 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         )?;
         Some(node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?)
     };
-    // Or Nav2's costmap_filter_info_server names the mask topic, latched (keepout.rs).
-    let filter_info_sub = if params.keepout_filter_info_topic.is_empty() {
-        None
-    } else {
+    // Or Nav2's costmap_filter_info_server names the mask topic, latched (costmap_filters.rs);
+    // so it does for the speed zones the follower drives under.
+    let mut filter_info_subs = Vec::new();
+    for (filter, info_topic) in [
+        (Filter::Keepout, &params.keepout_filter_info_topic),
+        (Filter::Speed, &params.speed_filter_info_topic),
+    ] {
+        if info_topic.is_empty() || (filter == Filter::Speed && !params.follow_plan) {
+            continue;
+        }
         let t = topic(
             &mut node,
-            &params.keepout_filter_info_topic,
+            info_topic,
             "nav2_msgs",
             "CostmapFilterInfo",
             &latched,
         )?;
-        Some(node.create_subscription::<CostmapFilterInfo>(&t, Some(latched.clone()))?)
-    };
+        let sub = node.create_subscription::<CostmapFilterInfo>(&t, Some(latched.clone()))?;
+        filter_info_subs.push((filter, info_topic.clone(), sub));
+    }
     let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
     let diag_topic = topic(
@@ -644,9 +652,10 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         tasks.spawn(inputs::receive_speed_limits(shared.clone(), sub));
     }
     if let Some(sub) = keepout_sub {
-        tasks.spawn(keepout::receive_masks(
+        tasks.spawn(costmap_filters::receive_masks(
             shared.clone(),
             out.clone(),
+            Filter::Keepout,
             params.keepout_mask_topic.clone(),
             sub,
         ));
@@ -709,15 +718,20 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         out.clone(),
         server,
     ));
-    // From here on the node is shared: the keepout filter info subscribes to the mask topics
-    // it names as they come.
+    // From here on the node is shared: a filter info subscribes to the mask topics it names
+    // as they come.
     let node = Arc::new(std::sync::Mutex::new(node));
-    if let Some(sub) = filter_info_sub {
-        tasks.spawn(keepout::receive_filter_info(
+    for (filter, info_topic, sub) in filter_info_subs {
+        if filter == Filter::Speed {
+            tasks.spawn(costmap_filters::limit_speed_in_zones(shared.clone()));
+        }
+        tasks.spawn(costmap_filters::receive_filter_info(
             shared.clone(),
             out.clone(),
             node.clone(),
             naming.clone(),
+            filter,
+            info_topic,
             sub,
         ));
     }

@@ -189,8 +189,12 @@ pub struct Shared {
     pub failed_replan: Mutex<Option<(u64, Failure)>>,
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
-    /// The speed limit (m/s) last set on `speed_limit_topic`, if one is in force.
+    /// The speed limit (m/s) last set on `speed_limit_topic` or by the speed zones, if one is
+    /// in force.
     pub speed_limit: RwLock<Option<f64>>,
+    /// The speed zones (`speed_filter_info_topic`; Nav2's speed filter): how the mask reads, and
+    /// the mask as last received.
+    pub speed_zones: RwLock<crate::costmap_filters::SpeedZones>,
     /// The lifecycle state: only an active node plans and drives.
     pub lifecycle: RwLock<crate::lifecycle::State>,
     /// The navigation going on, if any (see [`Shared::start_navigating`]).
@@ -261,6 +265,7 @@ impl Shared {
             arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
             speed_limit: RwLock::new(None),
+            speed_zones: RwLock::default(),
             navigator: Mutex::new(None),
         }
     }

@@ -1,0 +1,471 @@
+//! Nav2's costmap filters for the node's own costmap and drive: keepout zones and speed zones.
+//!
+//! - Keepout (Nav2's KeepoutFilter): a mask (nav_msgs/OccupancyGrid) latched by a filter mask
+//!   server is laid over the grid the node plans on (`keepout_mask_topic`, or the topic named
+//!   by `keepout_filter_info_topic`'s info).
+//! - Speed (Nav2's SpeedFilter, with `follow_plan`): the mask cell under the robot, through
+//!   the info's `base + value * multiplier`, is the speed limit the follower drives under, in
+//!   percent of the top speed or in m/s, as a SpeedLimit on `speed_limit_topic` would set it.
+//!
+//! As Nav2's filters, the node finds a mask through a nav2_msgs/CostmapFilterInfo latched by
+//! costmap_filter_info_server: a new info moves the node to its mask topic, and the last good
+//! mask stays in force until the new topic's first mask arrives.
+
+use crate::convert;
+use crate::inputs::speed_cap;
+use crate::outputs::Outputs;
+use crate::result::{Failure, Outcome, ResultCode};
+use crate::state::Shared;
+use log::{error, info, warn};
+use patrol_msgs::nav2_msgs::{CostmapFilterInfo, SpeedLimit};
+use patrol_msgs::nav_msgs::OccupancyGrid;
+use planner_core::geometry::Point2;
+use planner_core::grid::GridMap;
+use ros2_client::{MessageTypeName, Node, Subscription};
+use ros_edge::naming::Naming;
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// The filters the node runs, each as its Nav2 namesake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Filter {
+    Keepout,
+    Speed,
+}
+
+impl Filter {
+    fn name(self) -> &'static str {
+        match self {
+            Filter::Keepout => "keepout",
+            Filter::Speed => "speed",
+        }
+    }
+}
+
+/// How a speed mask's values read as limits: Nav2's SpeedFilter's `base + value * multiplier`,
+/// in percent of the top speed (info type 1) or in m/s (type 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpeedConversion {
+    pub percentage: bool,
+    pub base: f64,
+    pub multiplier: f64,
+}
+
+impl SpeedConversion {
+    /// The speed limit of a mask value as Nav2's SpeedFilter gives it (`getSpeedLimitAtPose`):
+    /// 0 no limit (a SpeedLimit of 0), -1 (unknown) none at all (the limit in force stays),
+    /// otherwise `base + value * multiplier`, where a percentage outside 0..=100 or a negative
+    /// speed is no limit.
+    pub fn limit(&self, value: i8) -> Option<SpeedLimit> {
+        let speed_limit = match value {
+            0 => 0.0,
+            -1 => return None,
+            v => {
+                let limit = f64::from(v) * self.multiplier + self.base;
+                let out_of_range = if self.percentage {
+                    !(0.0..=100.0).contains(&limit)
+                } else {
+                    limit < 0.0
+                };
+                if out_of_range || !limit.is_finite() {
+                    0.0
+                } else {
+                    limit
+                }
+            }
+        };
+        Some(SpeedLimit {
+            percentage: self.percentage,
+            speed_limit,
+            ..Default::default()
+        })
+    }
+}
+
+/// The speed zones in force: the conversion of the last good info and its mask.
+#[derive(Default)]
+pub struct SpeedZones {
+    pub conversion: Option<SpeedConversion>,
+    pub mask: Option<Arc<GridMap>>,
+}
+
+/// The masks of `filter` on `topic`: each one checked (a map's bounds and cell cap; in the
+/// global frame, as this node has no transform to lay a mask of another frame by) and put in
+/// force. A keepout mask is kept for every grid made from now on; the current grid is made
+/// again under it at once, and the path being followed checked against it
+/// (`inputs::remake_grid_on_change`): a path through a new keepout zone is planned again. A
+/// speed mask is read at the robot's pose from the next control tick ([`limit_speed_in_zones`]).
+/// A mask refused is reported on `/diagnostics` and the last good one stays.
+pub async fn receive_masks(
+    s: Arc<Shared>,
+    o: Outputs,
+    filter: Filter,
+    topic: String,
+    sub: Subscription<OccupancyGrid>,
+) {
+    let kind = filter.name();
+    loop {
+        let msg = match sub.async_take().await {
+            Ok((msg, _)) => msg,
+            Err(e) => {
+                warn!("{topic}: {e:?}");
+                continue;
+            }
+        };
+        let frame = msg.header.frame_id.clone();
+        let global = s.params.global_frame.clone();
+        let checked = tokio::task::spawn_blocking(move || {
+            if !frame.is_empty() && frame != global {
+                return Err(format!(
+                    "the mask is in frame `{frame}` and the node plans in `{global}`: publish it in `{global}`"
+                ));
+            }
+            convert::grid_from_msg(&msg).map_err(|e| e.to_string())
+        })
+        .await;
+        match checked {
+            Ok(Ok(mask)) => {
+                let info = *mask.info();
+                let mask = Some(Arc::new(mask));
+                match filter {
+                    Filter::Keepout => *s.keepout.write().expect("lock") = mask,
+                    Filter::Speed => s.speed_zones.write().expect("lock").mask = mask,
+                }
+                info!(
+                    "{kind} mask from {topic}: {} x {} cells of {:.3} m",
+                    info.width, info.height, info.resolution
+                );
+                if filter == Filter::Keepout {
+                    s.settings_changed.notify_one();
+                }
+            }
+            Ok(Err(why)) => {
+                refuse(
+                    &s,
+                    &o,
+                    format!("{kind} mask on {topic} refused, keeping the last good one: {why}"),
+                )
+                .await
+            }
+            Err(e) => error!("{kind} mask task: {e}"),
+        }
+    }
+}
+
+/// The filter infos of `filter` on `info_topic`, as Nav2's filters follow their
+/// `filter_info_topic`: each good one (of this filter's kind, naming a valid topic) subscribes
+/// the node to its mask topic, latched, in place of the previous one (a speed filter's also
+/// sets how its mask reads, at once), and its masks are taken by [`receive_masks`]. An info
+/// refused (another filter's, no topic) is reported on `/diagnostics` and the node stays on
+/// the mask topic it had.
+pub async fn receive_filter_info(
+    s: Arc<Shared>,
+    o: Outputs,
+    node: Arc<Mutex<Node>>,
+    naming: Naming,
+    filter: Filter,
+    info_topic: String,
+    sub: Subscription<CostmapFilterInfo>,
+) {
+    let kind = filter.name();
+    // The current mask topic's reader and what it does with each mask; none until a good info.
+    let mut masks: Pin<Box<dyn Future<Output = ()> + Send>> = Box::pin(std::future::pending());
+    loop {
+        let msg = tokio::select! {
+            taken = sub.async_take() => taken,
+            () = &mut masks => continue,
+        };
+        let info = match msg {
+            Ok((info, _)) => info,
+            Err(e) => {
+                warn!("{info_topic}: {e:?}");
+                continue;
+            }
+        };
+        let subscribed = read_info(&info, filter)
+            .and_then(|(topic, conversion)| Ok((subscribe(&node, &naming, topic)?, conversion)));
+        match subscribed {
+            Ok(((topic, reader), conversion)) => {
+                if filter == Filter::Keepout && (info.base, info.multiplier) != (0.0, 1.0) {
+                    // As Nav2's KeepoutFilter: it says so and reads the mask as occupancy anyway.
+                    warn!(
+                        "{info_topic}: a keepout filter reads its mask as occupancy: base {} and multiplier {} are not used (set 0 and 1)",
+                        info.base, info.multiplier
+                    );
+                }
+                if conversion.is_some() {
+                    s.speed_zones.write().expect("lock").conversion = conversion;
+                }
+                info!("{info_topic}: {kind} masks from {topic}");
+                masks = Box::pin(receive_masks(s.clone(), o.clone(), filter, topic, reader));
+            }
+            Err(why) => {
+                refuse(
+                    &s,
+                    &o,
+                    format!(
+                        "{kind} filter info on {info_topic} refused, keeping the mask topic it had: {why}"
+                    ),
+                )
+                .await
+            }
+        }
+    }
+}
+
+/// The speed filter at work, as Nav2's SpeedFilter runs in its costmap's update: at the
+/// follower's rate, the speed mask's cell under the robot (latest `/odom`) is read as a limit;
+/// when the limit read changes it is put in force as a SpeedLimit on `speed_limit_topic`
+/// would be, so the latest of the two wins, as in controller_server. Off the mask, on an
+/// unknown cell or without fresh odometry, the limit in force stays.
+pub async fn limit_speed_in_zones(s: Arc<Shared>) {
+    let mut ticker = tokio::time::interval(Duration::from_secs_f64(1.0 / s.params.control_rate_hz));
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    // The limit this filter last put in force; at first none, as Nav2's SpeedFilter starts
+    // (so a robot starting off every zone leaves a limit sent on `speed_limit_topic` alone).
+    let mut last: Option<f64> = None;
+    loop {
+        ticker.tick().await;
+        let Some(pose) = s.fresh_odom() else {
+            continue;
+        };
+        let read = {
+            let zones = s.speed_zones.read().expect("lock");
+            let (Some(conversion), Some(mask)) = (zones.conversion, zones.mask.as_ref()) else {
+                continue;
+            };
+            speed_limit_at(mask, conversion, Point2::new(pose.x, pose.y))
+        };
+        let Some(cap) = read.and_then(|msg| speed_cap(&msg, s.params.twist_limits.max_linear))
+        else {
+            continue;
+        };
+        if last != cap {
+            last = cap;
+            *s.speed_limit.write().expect("lock") = cap;
+            match cap {
+                Some(v) => info!("speed zone: driving at most {v:.3} m/s"),
+                None => info!("speed zone: no limit here"),
+            }
+        }
+    }
+}
+
+/// The speed limit of the mask's cell under `at`, if `at` is on the mask and the cell known.
+fn speed_limit_at(mask: &GridMap, conversion: SpeedConversion, at: Point2) -> Option<SpeedLimit> {
+    let cell = mask.info().world_to_cell(at)?;
+    conversion.limit(mask.value(cell))
+}
+
+/// The mask topic `filter`'s info names, with (a speed filter's) how its mask reads, or why
+/// the info is none of `filter`'s.
+fn read_info(
+    info: &CostmapFilterInfo,
+    filter: Filter,
+) -> Result<(&str, Option<SpeedConversion>), String> {
+    let conversion = match (filter, info.r#type) {
+        (Filter::Keepout, CostmapFilterInfo::KEEPOUT) => None,
+        (Filter::Speed, CostmapFilterInfo::SPEED_PERCENT | CostmapFilterInfo::SPEED_ABSOLUTE) => {
+            if !(info.base.is_finite() && info.multiplier.is_finite()) {
+                return Err(format!(
+                    "base {} and multiplier {} must be finite",
+                    info.base, info.multiplier
+                ));
+            }
+            Some(SpeedConversion {
+                percentage: info.r#type == CostmapFilterInfo::SPEED_PERCENT,
+                base: f64::from(info.base),
+                multiplier: f64::from(info.multiplier),
+            })
+        }
+        (Filter::Keepout, CostmapFilterInfo::SPEED_PERCENT | CostmapFilterInfo::SPEED_ABSOLUTE) => {
+            return Err(format!(
+                "type {} is a speed filter's (0 is keepout): give it to speed_filter_info_topic",
+                info.r#type
+            ))
+        }
+        (Filter::Speed, CostmapFilterInfo::KEEPOUT) => {
+            return Err(
+                "type 0 is a keepout filter's (1 and 2 are speed): give it to keepout_filter_info_topic"
+                    .into(),
+            )
+        }
+        (_, other) => return Err(format!("type {other} is no filter Nav2 knows")),
+    };
+    if info.filter_mask_topic.is_empty() {
+        return Err("no filter_mask_topic".into());
+    }
+    Ok((&info.filter_mask_topic, conversion))
+}
+
+/// A latched reader of the masks on `topic` (resolved as every name of the node is), as
+/// Nav2's filters read a filter mask server's.
+fn subscribe(
+    node: &Mutex<Node>,
+    naming: &Naming,
+    topic: &str,
+) -> Result<(String, Subscription<OccupancyGrid>), String> {
+    let name = naming
+        .name(topic)
+        .map_err(|e| format!("filter_mask_topic `{topic}`: {e}"))?;
+    let latched = ros_edge::reliable(1, ros2_client::qos::Durability::TransientLocal);
+    let mut node = node.lock().expect("lock");
+    let t = node
+        .create_topic(
+            &name,
+            MessageTypeName::new("nav_msgs", "OccupancyGrid"),
+            &latched,
+        )
+        .map_err(|e| format!("filter_mask_topic `{topic}`: {e:?}"))?;
+    let reader = node
+        .create_subscription::<OccupancyGrid>(&t, Some(latched))
+        .map_err(|e| format!("filter_mask_topic `{topic}`: {e:?}"))?;
+    Ok((name.to_string(), reader))
+}
+
+/// Reports a refused mask or filter info on `/diagnostics` (the node goes on as it was).
+async fn refuse(s: &Shared, o: &Outputs, message: String) {
+    let planner = s.live.read().expect("lock").planner;
+    let f = Failure::new(ResultCode::InvalidInput, message);
+    warn!("{}", f.message);
+    o.diagnose(s, &Outcome::failed(planner, 0, f)).await;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use planner_core::geometry::Pose2;
+    use planner_core::grid::MapInfo;
+
+    fn info(r#type: u8, topic: &str, base: f32, multiplier: f32) -> CostmapFilterInfo {
+        CostmapFilterInfo {
+            r#type,
+            filter_mask_topic: topic.into(),
+            base,
+            multiplier,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn only_an_info_of_the_filters_own_kind_with_a_topic_names_a_mask() {
+        let keepout = info(0, "/keepout_filter_mask", 0.0, 1.0);
+        assert_eq!(
+            read_info(&keepout, Filter::Keepout),
+            Ok(("/keepout_filter_mask", None))
+        );
+        let speed = info(1, "/speed_filter_mask", 100.0, -1.0);
+        let err = read_info(&speed, Filter::Keepout).unwrap_err();
+        assert!(
+            err.contains("speed filter") && err.contains("speed_filter_info_topic"),
+            "{err}"
+        );
+        assert_eq!(
+            read_info(&speed, Filter::Speed),
+            Ok((
+                "/speed_filter_mask",
+                Some(SpeedConversion {
+                    percentage: true,
+                    base: 100.0,
+                    multiplier: -1.0
+                })
+            ))
+        );
+        let absolute = info(2, "/m", 0.0, 0.01);
+        assert!(
+            !read_info(&absolute, Filter::Speed)
+                .unwrap()
+                .1
+                .unwrap()
+                .percentage
+        );
+        assert!(read_info(&keepout, Filter::Speed)
+            .unwrap_err()
+            .contains("keepout_filter_info_topic"));
+        assert!(read_info(&info(7, "/m", 0.0, 1.0), Filter::Keepout)
+            .unwrap_err()
+            .contains("type 7"));
+        assert!(read_info(&info(0, "", 0.0, 1.0), Filter::Keepout)
+            .unwrap_err()
+            .contains("no filter_mask_topic"));
+        assert!(read_info(&info(1, "/m", f32::NAN, 1.0), Filter::Speed)
+            .unwrap_err()
+            .contains("finite"));
+    }
+
+    #[test]
+    fn a_speed_mask_reads_as_nav2s_speed_filter_reads_it() {
+        // Nav2's speed_filter_params example: percent, base 100, multiplier -1 (mask 40 -> 60 %).
+        let percent = SpeedConversion {
+            percentage: true,
+            base: 100.0,
+            multiplier: -1.0,
+        };
+        let limit = |c: SpeedConversion, v| c.limit(v).map(|m| (m.percentage, m.speed_limit));
+        assert_eq!(limit(percent, 40), Some((true, 60.0)));
+        assert_eq!(limit(percent, 0), Some((true, 0.0)), "0: no limit");
+        assert_eq!(
+            limit(percent, -1),
+            None,
+            "unknown: the limit in force stays"
+        );
+        let doubled = SpeedConversion {
+            multiplier: 2.0,
+            base: 0.0,
+            ..percent
+        };
+        assert_eq!(
+            limit(doubled, 60),
+            Some((true, 0.0)),
+            "120 %: out of range, no limit"
+        );
+        let absolute = SpeedConversion {
+            percentage: false,
+            base: 0.0,
+            multiplier: 0.01,
+        };
+        assert_eq!(limit(absolute, 30), Some((false, 0.3)));
+        let negative = SpeedConversion {
+            base: -1.0,
+            ..absolute
+        };
+        assert_eq!(
+            limit(negative, 30),
+            Some((false, 0.0)),
+            "below 0 m/s: no limit"
+        );
+    }
+
+    #[test]
+    fn the_speed_limit_is_the_masks_cell_under_the_robot() {
+        // A 4 x 1 mask of 0.5 m cells from x = 1: free, 50, unknown, 20.
+        let mask = GridMap::new(
+            MapInfo {
+                resolution: 0.5,
+                width: 4,
+                height: 1,
+                origin: Pose2 {
+                    x: 1.0,
+                    y: 0.0,
+                    yaw: 0.0,
+                },
+            },
+            vec![0, 50, -1, 20],
+        )
+        .unwrap();
+        let percent = SpeedConversion {
+            percentage: true,
+            base: 0.0,
+            multiplier: 1.0,
+        };
+        let at = |x| speed_limit_at(&mask, percent, Point2::new(x, 0.25)).map(|m| m.speed_limit);
+        assert_eq!(at(1.2), Some(0.0));
+        assert_eq!(at(1.7), Some(50.0));
+        assert_eq!(at(2.2), None, "unknown cell");
+        assert_eq!(at(2.7), Some(20.0));
+        assert_eq!(at(0.5), None, "off the mask");
+        assert_eq!(at(3.2), None, "off the mask");
+    }
+}
