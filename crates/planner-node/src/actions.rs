@@ -259,8 +259,9 @@ pub async fn serve_get_costmap(
             let map = shared.current_map()?;
             let (frame, stamp) = (&header.frame_id, header.stamp);
             Some(crate::convert::costmap_costs(
-                map.map(),
+                map.map().info(),
                 &map.grid,
+                |i| map.is_unknown(i),
                 frame,
                 stamp,
             ))

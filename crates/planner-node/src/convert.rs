@@ -13,7 +13,6 @@ use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::inflation::occupancy_from_cost;
-use planner_core::grid::map::UNKNOWN;
 use planner_core::grid::{GridMap, MapError, MapInfo, PlanningGrid};
 use planner_core::planner::Plan;
 use planner_core::PlannerName;
@@ -138,37 +137,50 @@ pub fn msg_from_grid(map: &GridMap, frame: &str, stamp: Time) -> OccupancyGrid {
     grid_msg(map.info(), frame, stamp, map.data().to_vec())
 }
 
-/// The planning grid made from `map` as costmap_2d publishes its costmap: each cell's cost
-/// through costmap_2d's translation table (lethal 100, inscribed 99, the graded costs 1..98, free
-/// 0), and the map's unknown cells -1, as costmap_2d marks them with `track_unknown_space` (Nav2's
-/// default for the global costmap). RViz's "costmap" colour scheme draws it: a user sees the
-/// obstacles and inflation the planners weigh, as Nav2 users look at `/global_costmap/costmap`.
-pub fn costmap_msg(map: &GridMap, grid: &PlanningGrid, frame: &str, stamp: Time) -> OccupancyGrid {
-    let data = map
-        .data()
+/// The planning grid as costmap_2d publishes its costmap: each cell's cost through
+/// costmap_2d's translation table (lethal 100, inscribed 99, the graded costs 1..98, free 0),
+/// and the cells `unknown(i)` says nothing is known of -1, as costmap_2d marks them with
+/// `track_unknown_space` (Nav2's default for the global costmap). RViz's "costmap" colour
+/// scheme draws it: a user sees the obstacles and inflation the planners weigh, as Nav2 users
+/// look at `/global_costmap/costmap`.
+pub fn costmap_msg(
+    info: &MapInfo,
+    grid: &PlanningGrid,
+    unknown: impl Fn(usize) -> bool,
+    frame: &str,
+    stamp: Time,
+) -> OccupancyGrid {
+    let data = grid
+        .costs()
         .iter()
-        .zip(grid.costs())
-        .map(|(&v, &cost)| {
-            if v == UNKNOWN {
+        .enumerate()
+        .map(|(i, &cost)| {
+            if unknown(i) {
                 -1
             } else {
                 occupancy_from_cost(cost)
             }
         })
         .collect();
-    grid_msg(map.info(), frame, stamp, data)
+    grid_msg(info, frame, stamp, data)
 }
 
 /// The planning grid as costmap_2d's GetCostmap service answers (nav2_msgs/Costmap, Nav2's
-/// `getGlobalCostmap()`): each cell's own cost on costmap_2d's scale, and the map's unknown cells
-/// 255 (NO_INFORMATION), as the global costmap tracks unknown space; the layer `master`.
-pub fn costmap_costs(map: &GridMap, grid: &PlanningGrid, frame: &str, stamp: Time) -> Costmap {
-    let info = map.info();
-    let data = map
-        .data()
+/// `getGlobalCostmap()`): each cell's own cost on costmap_2d's scale, and the cells
+/// `unknown(i)` says nothing is known of 255 (NO_INFORMATION), as the global costmap tracks
+/// unknown space; the layer `master`.
+pub fn costmap_costs(
+    info: &MapInfo,
+    grid: &PlanningGrid,
+    unknown: impl Fn(usize) -> bool,
+    frame: &str,
+    stamp: Time,
+) -> Costmap {
+    let data = grid
+        .costs()
         .iter()
-        .zip(grid.costs())
-        .map(|(&v, &cost)| if v == UNKNOWN { NO_INFORMATION } else { cost })
+        .enumerate()
+        .map(|(i, &cost)| if unknown(i) { NO_INFORMATION } else { cost })
         .collect();
     let grid = grid_msg(info, frame, stamp, Vec::new());
     Costmap {
@@ -410,6 +422,7 @@ pub fn pareto_markers(plan: &Plan, header: Header) -> MarkerArray {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use planner_core::grid::map::UNKNOWN;
 
     fn stamped(frame: &str, x: f64, y: f64, q: Quaternion) -> PoseStamped {
         PoseStamped {
@@ -604,7 +617,13 @@ mod tests {
             ..InflationConfig::default()
         };
         let grid = PlanningGrid::new(&map, &cfg).unwrap();
-        let msg = costmap_msg(&map, &grid, "map", Time::default());
+        let msg = costmap_msg(
+            map.info(),
+            &grid,
+            |i| map.data()[i] == UNKNOWN,
+            "map",
+            Time::default(),
+        );
         assert_eq!((msg.info.width, msg.info.height), (40, 1));
         let v = &msg.data;
         assert_eq!(v[0], 100);

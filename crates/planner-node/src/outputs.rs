@@ -161,7 +161,14 @@ pub async fn publish_costmaps(s: Arc<Shared>, publisher: Publisher<OccupancyGrid
         let grid = map.clone();
         // One pass over the map: off the async threads on a map of millions of cells.
         let msg = tokio::task::spawn_blocking(move || {
-            convert::costmap_msg(grid.map(), &grid.grid, &frame, ros_edge::now())
+            let unknown = |i| grid.is_unknown(i);
+            convert::costmap_msg(
+                grid.map().info(),
+                &grid.grid,
+                unknown,
+                &frame,
+                ros_edge::now(),
+            )
         })
         .await;
         match msg {

@@ -11,6 +11,7 @@ use patrol_msgs::nav_msgs::Path;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::inflation::planning_grid;
+use planner_core::grid::map::UNKNOWN;
 use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
 use planner_core::params::ParamError;
 use planner_core::PlannerName;
@@ -119,6 +120,21 @@ impl MapState {
     /// costmap marks unknown.
     pub fn map(&self) -> &GridMap {
         &self.map
+    }
+
+    /// Whether the grid's cell `i` is one nothing is known of, as a published costmap marks it
+    /// (-1, NO_INFORMATION): unknown on the map, and given no cost by a keepout mask (Nav2's
+    /// keepout filter writes its cost over an unknown cell, so a zone shows over unexplored
+    /// space too).
+    pub fn is_unknown(&self, i: usize) -> bool {
+        self.map.data()[i] == UNKNOWN
+            && !self.keepout.as_deref().is_some_and(|mask| {
+                let info = self.map.info();
+                let centre = info.cell_to_world(info.cell_at(i));
+                mask.info()
+                    .world_to_cell(centre)
+                    .is_some_and(|c| mask.value(c) != UNKNOWN)
+            })
     }
 
     /// The same map's grid made with `settings`.
@@ -882,6 +898,47 @@ mod tests {
         assert!(!under.grid.is_free(Cell::new(5, 2)));
         assert!(under.grid.is_free(Cell::new(4, 2)) && under.grid.is_free(Cell::new(6, 2)));
         assert!(state.grid.is_free(Cell::new(5, 2)));
+    }
+
+    /// A published costmap marks a cell unknown only where the map is and no keepout mask gives
+    /// it a cost: a zone laid over unexplored space shows there, as Nav2's keepout filter's does.
+    #[test]
+    fn a_keepout_zone_over_unknown_space_is_no_longer_unknown() {
+        let mut map = wall_map();
+        let w = map.width() as usize;
+        // Unknown: columns 30-39 of the 40 x 10 map.
+        let data: Vec<i8> = (0..map.data().len())
+            .map(|i| if i % w >= 30 { UNKNOWN } else { map.data()[i] })
+            .collect();
+        map = GridMap::new(*map.info(), data).unwrap();
+        // A mask over x 3.0-3.5 m (columns 30-34): 100, and unknown at column 34.
+        let mask = GridMap::new(
+            MapInfo {
+                width: 5,
+                height: 10,
+                resolution: 0.1,
+                origin: Pose2::new(3.0, 0.0, 0.0),
+            },
+            (0..50)
+                .map(|i| if i % 5 == 4 { UNKNOWN } else { 100 })
+                .collect(),
+        )
+        .unwrap();
+        let allow = InflationConfig {
+            allow_unknown: true,
+            ..InflationConfig::default()
+        };
+        let settings = GridSettings {
+            keepout: Some(Arc::new(mask)),
+            ..GridSettings::without_keepout(allow.clone())
+        };
+        let state = MapState::new(Arc::new(map.clone()), false, &settings).unwrap();
+        let unknown: Vec<usize> = (0..w).filter(|&x| state.is_unknown(2 * w + x)).collect();
+        assert_eq!(unknown, vec![34, 35, 36, 37, 38, 39]);
+        let bare =
+            MapState::new(Arc::new(map), false, &GridSettings::without_keepout(allow)).unwrap();
+        assert!((30..40).all(|x| bare.is_unknown(2 * w + x)));
+        assert!(!bare.is_unknown(2 * w + 29));
     }
 
     /// A speed limit lowers the top speed a plan is driven at, never raises it past the
