@@ -185,4 +185,45 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         stop_binary(proc)
 
 
+
+def test_with_use_sim_time_the_node_stamps_with_the_simulations_clock(tmp_path):
+    """A simulated Nav2 stack (Gazebo, `ros2 bag play --clock`) runs every node with
+    `use_sim_time`: the node stamps its answers and /plan with the latest rosgraph_msgs/Clock
+    on /clock (published here as Gazebo's bridge does, reliable), not the system clock, and
+    says so when its use_sim_time parameter is asked for."""
+    from rcl_interfaces.srv import GetParameters
+    from rosgraph_msgs.msg import Clock
+
+    from conftest import call_service
+
+    params = tmp_path / "params.yaml"
+    params.write_text(PARAMS + "    use_sim_time: true\n")
+    domain = domain_id(96)
+    proc = start_node(domain, params, "nav2_sim_time_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        clock_pub = ros.node.create_publisher(Clock, "/clock", 10)
+        sim = Clock()
+        sim.clock.sec, sim.clock.nanosec = 1234, 500000000
+        ros.node.create_timer(0.05, lambda: clock_pub.publish(sim))
+        grid = build_test_map()
+        ros.wait_matched(ros.map_pub, "/map")
+        ros.map_pub.publish(grid_msg(grid))
+        nav2 = Nav2Client(ros)
+
+        def planned():
+            status, result = nav2.get_path(world(1.0, 1.0), world(10.0, 5.0))
+            return result if result.error_code == 0 else None
+
+        result = ros.spin_until(planned, 30, "ComputePathToPose to plan under sim time")
+        stamp = result.path.header.stamp
+        assert (stamp.sec, stamp.nanosec) == (1234, 500000000), stamp
+        ros.spin_until(lambda: ros.plans and ros.plans[-1].header.stamp.sec == 1234, 10, "/plan stamped 1234 s")
+        asked = call_service(ros, GetParameters, "/patrol_planner/get_parameters",
+                             GetParameters.Request(names=["use_sim_time"]))
+        assert asked.values[0].bool_value, asked.values
+    finally:
+        ros.close()
+        stop_binary(proc)
+
 assert LATCHED  # the latched profile the session uses (kept imported for pyflakes' sake)

@@ -225,6 +225,18 @@ pub mod tf2_msgs {
     messages!(TFMessage);
 }
 
+pub mod rosgraph_msgs {
+    use super::builtin_interfaces::Time;
+    use super::*;
+    /// rosgraph_msgs/Clock: the simulation time a simulator (Gazebo's bridge, `ros2 bag play
+    /// --clock`) publishes on `/clock`, which nodes with `use_sim_time` stamp with.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct Clock {
+        pub clock: Time,
+    }
+    messages!(Clock);
+}
+
 pub mod nav_msgs {
     use super::builtin_interfaces::Time;
     use super::geometry_msgs::{Pose, PoseStamped, PoseWithCovariance, TwistWithCovariance};

@@ -614,6 +614,16 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         g::SPEED_LIMIT,
     );
     check(
+        "Clock",
+        patrol_msgs::rosgraph_msgs::Clock {
+            clock: Time {
+                sec: 1234,
+                nanosec: 500_000_000,
+            },
+        },
+        g::CLOCK,
+    );
+    check(
         "CostmapFilterInfo",
         CostmapFilterInfo {
             header: header(),

@@ -18,6 +18,7 @@ from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose
                               FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import GetCostmap, IsPathValid, LoadMap
+from rosgraph_msgs.msg import Clock
 from nav2_msgs.msg import Costmap, CostmapFilterInfo, CostmapMetaData, SpeedLimit
 
 
@@ -167,6 +168,9 @@ def messages():
     out["LOAD_MAP_RESPONSE"] = LoadMap.Response(map=grid, result=LoadMap.Response.RESULT_INVALID_MAP_DATA)
     out["GET_MAP_REQUEST"] = GetMap.Request()
     out["GET_MAP_RESPONSE"] = GetMap.Response(map=grid)
+    clock = Clock()
+    clock.clock.sec, clock.clock.nanosec = 1234, 500000000
+    out["CLOCK"] = clock
     out["COSTMAP_FILTER_INFO"] = CostmapFilterInfo(
         header=header(), type=1, filter_mask_topic="/speed_filter_mask", base=100.0, multiplier=-1.0)
     return out

@@ -117,6 +117,11 @@ pub struct NodeParams {
     /// drives under (0 no limit), as if sent on `speed_limit_topic`. Only with `follow_plan`.
     /// Empty (default): none.
     pub speed_filter_info_topic: String,
+    /// Stamp with the simulation's time, the latest rosgraph_msgs/Clock on `/clock`, as every
+    /// node of a simulated Nav2 stack does (its launch files set it on them all); zero until
+    /// the first arrives. Durations (timeouts, allowances) are still measured on the system
+    /// clock, which a simulation running at real time keeps pace with. Default false.
+    pub use_sim_time: bool,
     /// follow_waypoints: put the waypoints in the fastest order before driving them (the route
     /// planner's), instead of the order given.
     pub order_waypoints: bool,
@@ -246,6 +251,7 @@ impl Default for NodeParams {
             keepout_filter_info_topic: String::new(),
             speed_limit_topic: "speed_limit".into(),
             speed_filter_info_topic: String::new(),
+            use_sim_time: false,
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
             stop_on_failure: false,
@@ -371,10 +377,9 @@ impl NodeParams {
     }
 }
 
-/// Keys of Nav2's planner_server block that this node reads past: it hosts no costmap of its own
-/// and stamps with the wall clock. Each is accepted with a warning, so that Nav2's own params
-/// file loads unedited.
-const NAV2_KEYS_IGNORED: [&str; 2] = ["costmap_update_timeout", "use_sim_time"];
+/// Keys of Nav2's planner_server block that this node reads past: it hosts no costmap of its
+/// own. Each is accepted with a warning, so that Nav2's own params file loads unedited.
+const NAV2_KEYS_IGNORED: [&str; 1] = ["costmap_update_timeout"];
 
 /// What an id's block (`GridBased: {plugin: ..., tolerance: ...}`) makes the id answer with:
 /// `Some(planner)` for one of ours, `None` (the `planner` parameter) for a Nav2 C++ plugin
@@ -508,11 +513,9 @@ pub fn load_parameter_file_for(
         } else if node_keys.iter().any(|k| k == name) {
             node.insert(key, value);
         } else if NAV2_KEYS_IGNORED.contains(&name) {
-            if !(name == "use_sim_time" && value == Value::Bool(false)) {
-                warnings.push(format!(
-                    "ignored Nav2's `{name}`: this node hosts no costmap and stamps with the wall clock"
-                ));
-            }
+            warnings.push(format!(
+                "ignored Nav2's `{name}`: this node hosts no costmap of its own"
+            ));
         } else {
             let mut valid = planning_keys.clone();
             valid.extend(node_keys.iter().cloned());
@@ -623,7 +626,6 @@ mod tests {
         let warned = file.warnings.join("\n");
         for word in [
             "costmap_update_timeout",
-            "use_sim_time",
             "nav2_navfn_planner/NavfnPlanner",
             "tolerance, use_astar, allow_unknown",
         ] {
@@ -631,6 +633,10 @@ mod tests {
         }
         let node = &file.node;
         assert_eq!(node.expected_planner_frequency, 20.0);
+        assert!(
+            node.use_sim_time,
+            "Nav2's simulation stamps with /clock here too"
+        );
         assert_eq!(node.planner_for_id(""), Ok(None));
         assert_eq!(node.planner_for_id("GridBased"), Ok(None));
         assert_eq!(node.planner_for_id("astar"), Ok(Some(PlannerName::Astar)));

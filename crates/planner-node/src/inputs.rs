@@ -14,6 +14,7 @@ use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{NavigateToPoseGoal, SpeedLimit};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
+use patrol_msgs::rosgraph_msgs::Clock;
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
 use std::sync::{Arc, Weak};
@@ -289,6 +290,16 @@ pub async fn receive_start_poses(
                 }
             }
             Err(f) => warn!("{name} ignored: {}", f.message),
+        }
+    }
+}
+
+/// `/clock` (with `use_sim_time`): the simulation's time, which every stamp from now on is.
+pub async fn receive_clock(sub: Subscription<Clock>) {
+    loop {
+        match sub.async_take().await {
+            Ok((msg, _)) => ros_edge::set_sim_time(msg.clock),
+            Err(e) => warn!("/clock: {e:?}"),
         }
     }
 }

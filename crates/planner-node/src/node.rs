@@ -9,6 +9,7 @@
 //! | in | `/map` | nav_msgs/OccupancyGrid | reliable, transient local, depth 1 (like map_server) |
 //! | in | `/goal_pose` | geometry_msgs/PoseStamped | reliable, volatile, depth 10 (RViz's 2D Goal Pose) |
 //! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
+//! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
@@ -59,6 +60,7 @@ use patrol_msgs::nav2_msgs::{
 use patrol_msgs::nav_msgs::{
     GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
 };
+use patrol_msgs::rosgraph_msgs::Clock;
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::params::ParamError;
@@ -292,6 +294,23 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     };
     let latched = ros_edge::reliable(1, Durability::TransientLocal);
     let volatile = ros_edge::reliable(10, Durability::Volatile);
+    // A simulated stack's time (use_sim_time): every stamp from here on is the latest /clock.
+    // The node reads /clock itself, typed rosgraph_msgs/Clock with rclcpp's clock QoS (best
+    // effort, the last one): ros2-client's own reader takes it as builtin_interfaces/Time,
+    // a type Gazebo's bridge or `ros2 bag play --clock` do not match.
+    if params.use_sim_time {
+        ros_edge::use_sim_time();
+        info!(
+            "use_sim_time: stamps from /clock (rosgraph_msgs/Clock); RustDDS may report /clock as an inconsistent topic, for ros2-client's own reader of it (builtin_interfaces/Time): expected"
+        );
+        if let Err(e) = node.set_parameter("use_sim_time", ParameterValue::Boolean(true)) {
+            warn!("use_sim_time: {e}");
+        }
+        let clock_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
+        let t = topic(&mut node, "/clock", "rosgraph_msgs", "Clock", &clock_qos)?;
+        let clock_sub = node.create_subscription::<Clock>(&t, Some(clock_qos))?;
+        tasks.spawn(inputs::receive_clock(clock_sub));
+    }
     let map_topic = topic(&mut node, "map", "nav_msgs", "OccupancyGrid", &latched)?;
     let map_pub =
         Arc::new(node.create_publisher::<OccupancyGrid>(&map_topic, Some(latched.clone()))?);

@@ -1,6 +1,6 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
 //! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header
-//! stamps from the system clock, SIGINT and SIGTERM, the reliable QoS profile set explicitly on
+//! stamps from the system clock (or `/clock`, with `use_sim_time`), SIGINT and SIGTERM, the reliable QoS profile set explicitly on
 //! every topic (ros2-client's defaults differ from rclpy's), logging to the terminal and
 //! `/rosout`, and reading a node's block of a ROS 2 parameter file (`parameters`).
 
@@ -15,6 +15,7 @@ use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{Context, ContextOptions, QosProfile};
 use std::future::Future;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::time::{SystemTime, UNIX_EPOCH};
 use tokio::signal::unix::{signal, Signal, SignalKind};
 
@@ -48,8 +49,33 @@ pub fn params_file(default: &str) -> (PathBuf, bool) {
     }
 }
 
-/// Now, as a header stamp.
+/// Whether header stamps come from `/clock` ([`use_sim_time`]) instead of the system clock.
+static SIM_TIME: AtomicBool = AtomicBool::new(false);
+/// The latest `/clock` time, in nanoseconds since its epoch (0 until the first arrives).
+static SIM_NANOS: AtomicI64 = AtomicI64::new(0);
+
+/// From now on, stamps are the simulation's time (the latest [`set_sim_time`]), as a ROS 2
+/// node with `use_sim_time` stamps them: zero until the first `/clock` arrives, as rclcpp's.
+/// One clock per binary, as ROS 2 keeps one per node and each binary here runs one node.
+pub fn use_sim_time() {
+    SIM_TIME.store(true, Ordering::SeqCst);
+}
+
+/// The simulation's time, as the latest `/clock` message gives it.
+pub fn set_sim_time(t: Time) {
+    let nanos = i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec);
+    SIM_NANOS.store(nanos, Ordering::SeqCst);
+}
+
+/// Now, as a header stamp: the system clock's, or with [`use_sim_time`] the simulation's.
 pub fn now() -> Time {
+    if SIM_TIME.load(Ordering::SeqCst) {
+        let nanos = SIM_NANOS.load(Ordering::SeqCst);
+        return Time {
+            sec: nanos.div_euclid(1_000_000_000) as i32,
+            nanosec: nanos.rem_euclid(1_000_000_000) as u32,
+        };
+    }
     let d = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .unwrap_or_default();
@@ -116,4 +142,29 @@ where
         .build()
         .context("starting tokio")?
         .block_on(main)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With sim time on, a stamp is the latest /clock's to the nanosecond (zero before the
+    /// first). The only test in this binary that turns sim time on, as it is process-wide.
+    #[test]
+    fn with_sim_time_the_stamps_are_the_clocks() {
+        assert!(now().sec > 1_700_000_000, "the system clock before");
+        use_sim_time();
+        assert_eq!(now(), Time::default(), "zero until the first /clock");
+        set_sim_time(Time {
+            sec: 1234,
+            nanosec: 500_000_000,
+        });
+        assert_eq!(
+            now(),
+            Time {
+                sec: 1234,
+                nanosec: 500_000_000
+            }
+        );
+    }
 }
