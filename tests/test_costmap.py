@@ -188,41 +188,59 @@ def test_the_safety_weight_set_at_run_time_moves_the_next_plan_off_the_walls(tmp
         stop_binary(proc)
 
 
+def keepout_node(tmp_path, line, offset, log):
+    """A node planning with A* on its own costmap, `line` its keepout parameter, on a domain
+    of its own; an open 10 m x 6 m map published to it. Returns the process and the client."""
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
+        f"    {line}\n"
+    )
+    domain = domain_id(offset)
+    proc = start_node(domain, params, log)
+    ros = Ros(domain, context=rclpy.Context())
+    ros.wait_matched(ros.map_pub, "/map")
+    ros.map_pub.publish(grid_msg(np.zeros((60, 100), dtype=np.int8), origin=(0.0, 0.0), res=RES))
+    return proc, ros
+
+
+def plan_across(ros):
+    """The plan from (1, 2) to (9, 2) m, straight through the keepout zone below when open."""
+    req = GetPlan.Request(start=stamped(1.0, 2.0), goal=stamped(9.0, 2.0), tolerance=0.0)
+    return call_service(ros, GetPlan, "/patrol_planner/make_plan", req).plan.poses
+
+
+def through_zone(poses):
+    """The poses inside the zone of [`zone_mask`]."""
+    return [p for p in poses if 4.0 <= p.pose.position.x <= 6.0 and p.pose.position.y <= 4.5]
+
+
+def zone_mask(value=100):
+    """A 0.2 m mask from (3, 0): the zone x 4..6 m, y 0..4.6 m at `value`, the rest 0."""
+    zone = np.zeros((30, 25), dtype=np.int8)
+    zone[0:23, 5:15] = value
+    return grid_msg(zone, origin=(3.0, 0.0), res=0.2)
+
+
 def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
     """Nav2's keepout filter, for the node's own costmap (`keepout_mask_topic`): a mask (as a
     filter mask server latches it, of its own resolution and origin) keeps the plans out of its
     zone at once, and the published costmap shows it lethal; a mask in another frame is refused
     on /diagnostics and the last good one stays; an empty mask frees the way again."""
     mask_topic = "/keepout_filter_mask"
-    params = tmp_path / "planner.yaml"
-    params.write_text(
-        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
-        f"    keepout_mask_topic: {mask_topic}\n"
-    )
-    domain = domain_id(34)
-    proc = start_node(domain, params, "keepout_test.log")
-    ros = Ros(domain, context=rclpy.Context())
+    proc, ros = keepout_node(tmp_path, f"keepout_mask_topic: {mask_topic}", 34, "keepout_test.log")
     try:
         costmaps = []
         ros.node.create_subscription(OccupancyGrid, "/patrol_planner/costmap", costmaps.append, LATCHED)
         mask_pub = ros.node.create_publisher(OccupancyGrid, mask_topic, LATCHED)
-        ros.wait_matched(ros.map_pub, "/map")
-        ros.map_pub.publish(grid_msg(np.zeros((60, 100), dtype=np.int8), origin=(0.0, 0.0), res=RES))
 
         def plan():
-            req = GetPlan.Request(start=stamped(1.0, 2.0), goal=stamped(9.0, 2.0), tolerance=0.0)
-            return call_service(ros, GetPlan, "/patrol_planner/make_plan", req).plan.poses
-
-        def through_zone(poses):
-            return [p for p in poses if 4.0 <= p.pose.position.x <= 6.0 and p.pose.position.y <= 4.5]
+            return plan_across(ros)
 
         ros.spin_until(lambda: plan(), 30, "a plan on the open map")
         assert through_zone(plan()), "on the open map the plan runs straight through"
-        # The zone: x 4..6 m, y 0..4.6 m, on a 0.2 m mask from (3, 0); the rest of the mask 0.
-        zone = np.zeros((30, 25), dtype=np.int8)
-        zone[0:23, 5:15] = 100
         ros.wait_matched(mask_pub, mask_topic)
-        mask_pub.publish(grid_msg(zone, origin=(3.0, 0.0), res=0.2))
+        mask_pub.publish(zone_mask())
         poses = ros.spin_until(lambda: (lambda p: p if p and not through_zone(p) else None)(plan()), 20,
                                "a plan round the keepout zone")
         assert max(p.pose.position.y for p in poses) > 4.6, "round the zone's top"
@@ -236,14 +254,14 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
         ros.spin_until(lethal_in_costmap, 10, "the zone lethal on /patrol_planner/costmap")
 
         i = len(ros.diagnostics)
-        other = grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2)
+        other = zone_mask(0)
         other.header.frame_id = "odom"
         mask_pub.publish(other)
         code, why, _ = ros.wait_code(i, "INVALID_INPUT")
         assert "keepout mask" in why and "`odom`" in why, why
         assert plan() and not through_zone(plan()), "the last good mask stays"
 
-        mask_pub.publish(grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2))
+        mask_pub.publish(zone_mask(0))
         ros.spin_until(lambda: through_zone(plan()), 20, "the way free again under an empty mask")
     finally:
         ros.close()
@@ -258,27 +276,14 @@ def test_the_keepout_mask_is_found_through_nav2s_filter_info(tmp_path):
     from nav2_msgs.msg import CostmapFilterInfo
 
     info_topic = "/costmap_filter_info"
-    params = tmp_path / "planner.yaml"
-    params.write_text(
-        "patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    follow_plan: false\n    planner: astar\n"
-        f"    keepout_filter_info_topic: {info_topic}\n"
-    )
-    domain = domain_id(36)
-    proc = start_node(domain, params, "keepout_info_test.log")
-    ros = Ros(domain, context=rclpy.Context())
+    proc, ros = keepout_node(tmp_path, f"keepout_filter_info_topic: {info_topic}", 36, "keepout_info_test.log")
     try:
         info_pub = ros.node.create_publisher(CostmapFilterInfo, info_topic, LATCHED)
         first = ros.node.create_publisher(OccupancyGrid, "/keepout_first", LATCHED)
         second = ros.node.create_publisher(OccupancyGrid, "/keepout_second", LATCHED)
-        ros.wait_matched(ros.map_pub, "/map")
-        ros.map_pub.publish(grid_msg(np.zeros((60, 100), dtype=np.int8), origin=(0.0, 0.0), res=RES))
 
         def plan():
-            req = GetPlan.Request(start=stamped(1.0, 2.0), goal=stamped(9.0, 2.0), tolerance=0.0)
-            return call_service(ros, GetPlan, "/patrol_planner/make_plan", req).plan.poses
-
-        def through_zone(poses):
-            return [p for p in poses if 4.0 <= p.pose.position.x <= 6.0 and p.pose.position.y <= 4.5]
+            return plan_across(ros)
 
         def info(kind, topic):
             return CostmapFilterInfo(type=kind, filter_mask_topic=topic, base=0.0, multiplier=1.0)
@@ -286,9 +291,7 @@ def test_the_keepout_mask_is_found_through_nav2s_filter_info(tmp_path):
         ros.spin_until(lambda: plan(), 30, "a plan on the open map")
         # The zone of the test above on the first mask topic; nothing on it yet reaches the node
         # until the info names the topic.
-        zone = np.zeros((30, 25), dtype=np.int8)
-        zone[0:23, 5:15] = 100
-        first.publish(grid_msg(zone, origin=(3.0, 0.0), res=0.2))
+        first.publish(zone_mask())
         assert through_zone(plan()), "no info yet: no mask"
         ros.wait_matched(info_pub, info_topic)
         info_pub.publish(info(0, "/keepout_first"))
@@ -305,9 +308,9 @@ def test_the_keepout_mask_is_found_through_nav2s_filter_info(tmp_path):
         info_pub.publish(info(0, "/keepout_second"))
         ros.spin_until(lambda: second.get_subscription_count() > 0, 20, "the node on the second topic")
         assert plan() and not through_zone(plan()), "the last good mask until the new topic's first"
-        second.publish(grid_msg(np.zeros((30, 25), dtype=np.int8), origin=(3.0, 0.0), res=0.2))
+        second.publish(zone_mask(0))
         ros.spin_until(lambda: through_zone(plan()), 20, "the way free under the second topic's empty mask")
-        first.publish(grid_msg(zone, origin=(3.0, 0.0), res=0.2))
+        first.publish(zone_mask())
         ros.spin_for(1.0)
         assert through_zone(plan()), "the first topic no longer read"
     finally:
