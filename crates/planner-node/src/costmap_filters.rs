@@ -16,7 +16,7 @@ use crate::inputs::speed_cap;
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::Shared;
-use log::{error, info, warn};
+use log::{debug, error, info, warn};
 use patrol_msgs::nav2_msgs::{CostmapFilterInfo, SpeedLimit};
 use patrol_msgs::nav_msgs::OccupancyGrid;
 use planner_core::geometry::Point2;
@@ -172,6 +172,9 @@ pub async fn receive_filter_info(
     let kind = filter.name();
     // The current mask topic's reader and what it does with each mask; none until a good info.
     let mut masks: Pin<Box<dyn Future<Output = ()> + Send>> = Box::pin(std::future::pending());
+    // The info in force: the same one again (an info server restarted, a flood of them) keeps
+    // the reader it has rather than making another.
+    let mut in_force: Option<CostmapFilterInfo> = None;
     loop {
         let msg = tokio::select! {
             taken = sub.async_take() => taken,
@@ -184,6 +187,10 @@ pub async fn receive_filter_info(
                 continue;
             }
         };
+        if in_force.as_ref().is_some_and(|old| same_filter(old, &info)) {
+            debug!("{info_topic}: the info in force again; the mask reader stays");
+            continue;
+        }
         let subscribed = read_info(&info, filter)
             .and_then(|(topic, conversion)| Ok((subscribe(&node, &naming, topic)?, conversion)));
         match subscribed {
@@ -200,6 +207,7 @@ pub async fn receive_filter_info(
                 }
                 info!("{info_topic}: {kind} masks from {topic}");
                 masks = Box::pin(receive_masks(s.clone(), o.clone(), filter, topic, reader));
+                in_force = Some(info);
             }
             Err(why) => {
                 refuse(
@@ -257,6 +265,12 @@ pub async fn limit_speed_in_zones(s: Arc<Shared>) {
 fn speed_limit_at(mask: &GridMap, conversion: SpeedConversion, at: Point2) -> Option<SpeedLimit> {
     let cell = mask.info().world_to_cell(at)?;
     conversion.limit(mask.value(cell))
+}
+
+/// Whether two infos describe the same filter (their stamps aside).
+fn same_filter(a: &CostmapFilterInfo, b: &CostmapFilterInfo) -> bool {
+    (a.r#type, &a.filter_mask_topic, a.base, a.multiplier)
+        == (b.r#type, &b.filter_mask_topic, b.base, b.multiplier)
 }
 
 /// The mask topic `filter`'s info names, with (a speed filter's) how its mask reads, or why
@@ -393,6 +407,22 @@ mod tests {
         assert!(read_info(&info(1, "/m", f32::NAN, 1.0), Filter::Speed)
             .unwrap_err()
             .contains("finite"));
+    }
+
+    #[test]
+    fn an_info_again_with_another_stamp_is_the_same_filter() {
+        let a = info(1, "/speed_filter_mask", 0.0, 1.0);
+        let mut again = a.clone();
+        again.header.stamp.sec = 9;
+        assert!(same_filter(&a, &again));
+        for other in [
+            info(2, "/speed_filter_mask", 0.0, 1.0),
+            info(1, "/other_mask", 0.0, 1.0),
+            info(1, "/speed_filter_mask", 5.0, 1.0),
+            info(1, "/speed_filter_mask", 0.0, 2.0),
+        ] {
+            assert!(!same_filter(&a, &other), "{other:?}");
+        }
     }
 
     #[test]
