@@ -23,6 +23,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
   CostmapFilterInfo names, slows the drive inside it and only there.
 - The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
   room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
+- A patrol (follow_waypoints) waits at each waypoint for the inspection's word (Nav2's
+  InputAtWaypoint): a waypoint without one is missed after the timeout (601), the patrol goes on.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
   and driveOnHeading()): the robot turns through the angle, backs up the distance, drives on,
   a back-up towards the pillar stops short of it with COLLISION_AHEAD (714), a back-up sideways
@@ -54,6 +56,8 @@ RETRIES, ALLOWANCE, WAIT = 2, 4.0, 0.5
 # A recovery's spin or back-up of a blocked robot fails after this long (s): braking from the
 # top speed (0.6 m/s at 0.5 m/s^2) takes 1.2 s of it before a back-up drives backwards.
 BEHAVIOR_ALLOWANCE = 2.0
+# How long a patrol waits at a waypoint for the inspection's word (input_at_waypoint.timeout).
+INPUT_TIMEOUT = 2.0
 
 
 class Robot:
@@ -92,6 +96,7 @@ def rig(tmp_path):
         f"    progress_checker: {{movement_time_allowance: {ALLOWANCE}}}\n"
         f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
         "    speed_filter_info_topic: /speed_filter_info\n"
+        f"    input_at_waypoint: {{enabled: true, timeout: {INPUT_TIMEOUT}}}\n"
     )
     proc = start_node(domain, params, "patrol_planner_recovery_test.log")
     ros = Ros(domain, context=rclpy.Context())
@@ -318,6 +323,36 @@ def test_a_speed_zone_slows_the_drive_inside_it_as_nav2s_speed_filter(rig):
     log = (ROOT / "target" / "patrol_planner_recovery_test.log").read_text()
     zone = [line for line in log.splitlines() if "speed zone:" in line]
     assert [line.split("speed zone: ")[1] for line in zone] == ["driving at most 0.300 m/s", "no limit here"], zone
+
+
+def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):
+    """Nav2's InputAtWaypoint: at each waypoint the patrol waits for a std_msgs/Empty on
+    `input_at_waypoint/input` (the inspection done there says so). At the first no word comes:
+    after the timeout it is missed with TASK_EXECUTOR_FAILED (601) and the patrol goes on; at
+    the second the word comes once the robot is there, and the patrol succeeds."""
+    from nav2_msgs.action import FollowWaypoints
+    from std_msgs.msg import Empty
+
+    ros, robot, _ = rig
+    robot.blocked = False
+    word = ros.node.create_publisher(Empty, "/input_at_waypoint/input", 10)
+    ros.wait_matched(word, "/input_at_waypoint/input")
+
+    def inspect():
+        if math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) < 0.2:
+            word.publish(Empty())
+
+    ros.node.create_timer(0.1, inspect)
+    client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
+    goal = FollowWaypoints.Goal(poses=[stamped(2.0, 1.5), stamped(*GOAL)])
+    t0 = time.time()
+    r, feedback = behave(ros, client, goal, 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
+    missed = [(m.index, m.error_code) for m in r.result.missed_waypoints]
+    assert missed == [(0, 601)], missed
+    assert [f.current_waypoint for f in feedback][-1] == 1
+    assert math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) < 0.15
+    assert time.time() - t0 > INPUT_TIMEOUT, "the first waypoint waited its timeout"
 
 
 def test_the_behavior_servers_actions(rig):

@@ -65,7 +65,13 @@ pub mod std_msgs {
         pub layout: MultiArrayLayout,
         pub data: Vec<f64>,
     }
-    messages!(Header, ColorRGBA, Float64MultiArray);
+    /// std_msgs/Empty: a signal and nothing else (Nav2's InputAtWaypoint waits for one); rosidl
+    /// gives an empty structure one placeholder byte
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct Empty {
+        pub structure_needs_at_least_one_member: u8,
+    }
+    messages!(Header, ColorRGBA, Float64MultiArray, Empty);
 }
 
 /// A 6 x 6 row-major covariance (`float64[36]`). serde derives arrays only up to 32, so this

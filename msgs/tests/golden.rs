@@ -613,6 +613,7 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::SPEED_LIMIT,
     );
+    check("Empty", Empty::default(), g::EMPTY);
     check(
         "Clock",
         patrol_msgs::rosgraph_msgs::Clock {

@@ -4,7 +4,7 @@ Rust constants for golden.rs. Run from the repository root with the test venv:
 The values here must match the ones golden.rs builds."""
 from rclpy.serialization import serialize_message
 from builtin_interfaces.msg import Time
-from std_msgs.msg import Header, ColorRGBA, Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Header, ColorRGBA, Empty, Float64MultiArray, MultiArrayDimension
 from geometry_msgs.msg import (Point, Pose, PoseStamped, PoseWithCovarianceStamped, Quaternion,
                                Transform, TransformStamped, Twist, TwistStamped, Vector3)
 from nav_msgs.msg import OccupancyGrid, Path, Odometry
@@ -168,6 +168,7 @@ def messages():
     out["LOAD_MAP_RESPONSE"] = LoadMap.Response(map=grid, result=LoadMap.Response.RESULT_INVALID_MAP_DATA)
     out["GET_MAP_REQUEST"] = GetMap.Request()
     out["GET_MAP_RESPONSE"] = GetMap.Response(map=grid)
+    out["EMPTY"] = Empty()
     clock = Clock()
     clock.clock.sec, clock.clock.nanosec = 1234, 500000000
     out["CLOCK"] = clock

@@ -131,6 +131,10 @@ pub struct NodeParams {
     /// waypoint_follower parameter, whose default is true); false (a patrol's default): report
     /// it missed and go on to the next.
     pub stop_on_failure: bool,
+    /// follow_waypoints: at each waypoint reached (after the pause), wait for a word from
+    /// outside, as Nav2's InputAtWaypoint task executor does: the inspection a patrol stops for
+    /// (a gauge read, a photo taken) says it is done.
+    pub input_at_waypoint: InputAtWaypointParams,
     /// Nav2's `planner_plugins`: the planner ids a ComputePathToPose `planner_id` may name, as
     /// planner_server's behaviour trees send them (`GridBased` by default). Each id may have a
     /// block of its own, `<id>: {plugin: <planner>}`, naming one of this node's planners; an id
@@ -205,6 +209,31 @@ impl Default for RecoveryParams {
 
 /// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup`,
 /// `drive_on_heading` and `wait` actions and makes the recoveries' motions.
+/// Nav2's InputAtWaypoint task executor (its parameter names and defaults, but off by
+/// default: a patrol without an inspection node would miss every waypoint).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InputAtWaypointParams {
+    /// Wait for the input at each waypoint. Default false.
+    pub enabled: bool,
+    /// Where the input comes from: any std_msgs/Empty on it after the robot reached the
+    /// waypoint. Nav2's default `input_at_waypoint/input`.
+    pub input_topic: String,
+    /// How long (s) to wait; with no input by then the waypoint is missed
+    /// (TASK_EXECUTOR_FAILED, 601), and with `stop_on_failure` the patrol ends. Nav2's 10.
+    pub timeout: f64,
+}
+
+impl Default for InputAtWaypointParams {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            input_topic: "input_at_waypoint/input".into(),
+            timeout: 10.0,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BehaviorServerParams {
@@ -255,6 +284,7 @@ impl Default for NodeParams {
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
             stop_on_failure: false,
+            input_at_waypoint: InputAtWaypointParams::default(),
             planner_plugins: vec!["GridBased".into()],
             plugin_planners: BTreeMap::new(),
         }
@@ -316,6 +346,13 @@ impl NodeParams {
         {
             return Err(
                 "recovery: number_of_retries at most 100, wait_duration within 0..=600 s, time_allowance within 0.1..=600 s, spin_dist within +-4 pi rad, backup_dist within 0.01..=5 m, backup_speed within 0.01..=1 m/s, behaviors 1 to 16 of spin, wait, backup"
+                    .into(),
+            );
+        }
+        let input = &self.input_at_waypoint;
+        if !within(input.timeout, 0.1, 3_600.0) || (input.enabled && input.input_topic.is_empty()) {
+            return Err(
+                "input_at_waypoint: timeout within 0.1..=3600 s, and an input_topic when enabled"
                     .into(),
             );
         }
@@ -777,6 +814,16 @@ mod tests {
                 "    follower: {lookahead: fast}\n",
                 "`follower.lookahead",
             ),
+            (
+                "input_timeout.yaml",
+                "    input_at_waypoint: {enabled: true, timeout: 0.0}\n",
+                "input_at_waypoint",
+            ),
+            (
+                "input_topic.yaml",
+                "    input_at_waypoint: {enabled: true, input_topic: ''}\n",
+                "input_at_waypoint",
+            ),
         ] {
             let err = load_parameter_file(&write(name, block))
                 .unwrap_err()
@@ -801,6 +848,14 @@ mod tests {
             err.contains("keepout_mask_topic") && err.contains("KeepoutFilter"),
             "{err}"
         );
+        // Nav2's InputAtWaypoint, its defaults where not given.
+        let input = write(
+            "input.yaml",
+            "    input_at_waypoint: {enabled: true, timeout: 3.0}\n",
+        );
+        let read = load_parameter_file(&input).unwrap().node.input_at_waypoint;
+        assert!(read.enabled && read.timeout == 3.0);
+        assert_eq!(read.input_topic, "input_at_waypoint/input");
         // The mask's topic from Nav2's filter info instead: not beside a mask topic too.
         let info = write(
             "info.yaml",

@@ -15,6 +15,7 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{NavigateToPoseGoal, SpeedLimit};
 use patrol_msgs::nav_msgs::{OccupancyGrid, Odometry};
 use patrol_msgs::rosgraph_msgs::Clock;
+use patrol_msgs::std_msgs::Empty;
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
 use std::sync::{Arc, Weak};
@@ -290,6 +291,20 @@ pub async fn receive_start_poses(
                 }
             }
             Err(f) => warn!("{name} ignored: {}", f.message),
+        }
+    }
+}
+
+/// The inputs a patrol waits for at its waypoints (`input_at_waypoint`, Nav2's
+/// InputAtWaypoint): each std_msgs/Empty is counted.
+pub async fn receive_waypoint_inputs(s: Arc<Shared>, sub: Subscription<Empty>) {
+    loop {
+        match sub.async_take().await {
+            Ok(_) => {
+                s.waypoint_inputs
+                    .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            }
+            Err(e) => warn!("{}: {e:?}", s.params.input_at_waypoint.input_topic),
         }
     }
 }

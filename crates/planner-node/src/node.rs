@@ -9,6 +9,7 @@
 //! | in | `/map` | nav_msgs/OccupancyGrid | reliable, transient local, depth 1 (like map_server) |
 //! | in | `/goal_pose` | geometry_msgs/PoseStamped | reliable, volatile, depth 10 (RViz's 2D Goal Pose) |
 //! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
+//! | in | `input_at_waypoint.input_topic` (`input_at_waypoint/input`) | std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan` and `input_at_waypoint.enabled`) |
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
@@ -61,6 +62,7 @@ use patrol_msgs::nav_msgs::{
     GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
 };
 use patrol_msgs::rosgraph_msgs::Clock;
+use patrol_msgs::std_msgs::Empty;
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::params::ParamError;
@@ -453,6 +455,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     } else {
         None
     };
+    // Nav2's InputAtWaypoint reads its input with the default QoS (reliable, volatile).
+    let waypoint_input_sub = if params.follow_plan && params.input_at_waypoint.enabled {
+        let t = topic(
+            &mut node,
+            &params.input_at_waypoint.input_topic,
+            "std_msgs",
+            "Empty",
+            &volatile,
+        )?;
+        Some(node.create_subscription::<Empty>(&t, Some(volatile.clone()))?)
+    } else {
+        None
+    };
     // map -> odom as AMCL or a SLAM node broadcasts it, with tf2's listener QoS: /tf reliable
     // and volatile (depth 100), /tf_static reliable and transient local.
     let mut tf_subs = Vec::new();
@@ -669,6 +684,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     }
     if let Some(sub) = speed_limit_sub {
         tasks.spawn(inputs::receive_speed_limits(shared.clone(), sub));
+    }
+    if let Some(sub) = waypoint_input_sub {
+        tasks.spawn(inputs::receive_waypoint_inputs(shared.clone(), sub));
     }
     if let Some(sub) = keepout_sub {
         tasks.spawn(costmap_filters::receive_masks(

@@ -3,7 +3,8 @@
 //! Held-Karp up to 12 points, 2-opt/Or-opt above, with the driving-time model at the chassis'
 //! limits; `order_waypoints`), then each leg is planned from where the robot is, followed,
 //! finished facing the waypoint's heading, and paused at for `waypoint_pause_duration` (Nav2's
-//! WaitAtWaypoint); `number_of_loops` more passes follow, the first starting at `goal_index` as
+//! WaitAtWaypoint) and, with `input_at_waypoint`, waited at for a word from the inspection
+//! done there (Nav2's InputAtWaypoint); `number_of_loops` more passes follow, the first starting at `goal_index` as
 //! Nav2's does. A waypoint that cannot be planned to or reached in time is reported missed (its
 //! index in the request and the planner's Nav2 code) and the patrol goes on, or ends aborted
 //! with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
@@ -22,11 +23,13 @@ use planner_core::geometry::Pose2;
 use planner_core::route::file::{RouteFile, RoutePoint, RoutePose};
 use planner_core::route::{plan_route, RouteOptions};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// FollowWaypoints' TASK_EXECUTOR_FAILED: the code of a waypoint not reached in time.
-const NOT_REACHED: u16 = 601;
+/// FollowWaypoints' TASK_EXECUTOR_FAILED: the code of a waypoint not reached in time, or
+/// whose input did not come (`input_at_waypoint`).
+const TASK_EXECUTOR_FAILED: u16 = 601;
 
 pub type Server =
     AsyncActionServer<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>;
@@ -211,7 +214,7 @@ async fn patrol(
                 }
                 DriveEnd::NotReached(why) => {
                     warn!("follow_waypoints: pass {pass}, waypoint {i} not reached: {why}");
-                    result.missed_waypoints.push(missed(NOT_REACHED));
+                    result.missed_waypoints.push(missed(TASK_EXECUTOR_FAILED));
                     if stop_on_failure {
                         return failed(result, i);
                     }
@@ -219,20 +222,85 @@ async fn patrol(
                 }
             }
             info!("follow_waypoints: pass {pass}, waypoint {i} reached");
+            // An input counts from the arrival on, during the pause too.
+            let inputs_before = s.waypoint_inputs.load(Ordering::SeqCst);
             let pause = Duration::from_secs_f64(s.params.waypoint_pause_duration);
-            let paused = Instant::now();
-            while paused.elapsed() < pause {
-                if stop.requested() {
-                    return (stop.end_status(), result);
+            match wait_at_waypoint(s, mine, stop, pause, None).await {
+                Waited::Done | Waited::TimedOut => {}
+                Waited::Stopped => return (stop.end_status(), result),
+                Waited::Superseded => return superseded(result, i),
+            }
+            let input = &s.params.input_at_waypoint;
+            if input.enabled {
+                let timeout = Duration::from_secs_f64(input.timeout);
+                match wait_at_waypoint(s, mine, stop, timeout, Some(inputs_before)).await {
+                    Waited::Done => info!("follow_waypoints: waypoint {i}: input received"),
+                    Waited::Stopped => return (stop.end_status(), result),
+                    Waited::Superseded => return superseded(result, i),
+                    Waited::TimedOut => {
+                        warn!(
+                            "follow_waypoints: pass {pass}, waypoint {i}: no input on {} within {} s",
+                            input.input_topic, input.timeout
+                        );
+                        result.missed_waypoints.push(missed(TASK_EXECUTOR_FAILED));
+                        if stop_on_failure {
+                            result.error_code = TASK_EXECUTOR_FAILED;
+                            result.error_msg = format!(
+                                "no input at waypoint {i} within {} s and stop_on_failure is set",
+                                input.timeout
+                            );
+                            return (GoalEndStatus::Aborted, result);
+                        }
+                    }
                 }
-                if !s.owns_robot(mine) {
-                    return superseded(result, i);
-                }
-                tokio::time::sleep(Duration::from_millis(100).min(pause)).await;
             }
         }
     }
     (GoalEndStatus::Succeeded, result)
+}
+
+/// How a wait at a waypoint ended.
+enum Waited {
+    /// The pause is over, or the input came.
+    Done,
+    /// No input within the timeout.
+    TimedOut,
+    /// Cancelled or preempted ([`GoalStop`]).
+    Stopped,
+    /// The robot was taken by another goal.
+    Superseded,
+}
+
+/// Stays at the reached waypoint for `duration` (Nav2's WaitAtWaypoint), or, given the input
+/// count at arrival, until an input arrives after it (Nav2's InputAtWaypoint, polling as it
+/// does at 50 Hz), or `duration` passes: [`Waited::TimedOut`].
+async fn wait_at_waypoint(
+    s: &Shared,
+    mine: u64,
+    stop: &GoalStop,
+    duration: Duration,
+    inputs_before: Option<u64>,
+) -> Waited {
+    let started = Instant::now();
+    loop {
+        if inputs_before.is_some_and(|n| s.waypoint_inputs.load(Ordering::SeqCst) > n) {
+            return Waited::Done;
+        }
+        if stop.requested() {
+            return Waited::Stopped;
+        }
+        if !s.owns_robot(mine) {
+            return Waited::Superseded;
+        }
+        let left = duration.saturating_sub(started.elapsed());
+        if left.is_zero() {
+            return match inputs_before {
+                Some(_) => Waited::TimedOut,
+                None => Waited::Done,
+            };
+        }
+        tokio::time::sleep(Duration::from_millis(20).min(left)).await;
+    }
 }
 
 /// A patrol ended at its first missed waypoint (`stop_on_failure`), as Nav2's ends: aborted,
@@ -246,7 +314,48 @@ fn failed(mut result: FollowWaypointsResult, i: usize) -> (GoalEndStatus, Follow
 
 #[cfg(test)]
 mod tests {
-    use super::pass_order;
+    use super::{pass_order, wait_at_waypoint, Waited};
+    use crate::action_server::GoalStop;
+    use crate::state::Shared;
+    use planner_core::config::PlannerConfig;
+    use planner_io::parameters::NodeParams;
+    use std::sync::atomic::Ordering;
+    use std::sync::Arc;
+    use std::time::{Duration, Instant};
+
+    /// Nav2's InputAtWaypoint: an input after the arrival ends the wait at once, one counted
+    /// before it does not, none by the timeout is a timeout; a newer goal taking the robot ends
+    /// it as superseded; a plain pause lasts its time.
+    #[tokio::test]
+    async fn a_waypoint_waits_for_an_input_that_comes_after_the_arrival() {
+        let s = Arc::new(Shared::new(NodeParams::default(), PlannerConfig::default()));
+        let mine = s.take_robot();
+        let stop = GoalStop::never();
+        let long = Duration::from_secs(5);
+        let at_arrival = s.waypoint_inputs.load(Ordering::SeqCst);
+        let sender = s.clone();
+        tokio::spawn(async move {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            sender.waypoint_inputs.fetch_add(1, Ordering::SeqCst);
+        });
+        let t0 = Instant::now();
+        let waited = wait_at_waypoint(&s, mine, &stop, long, Some(at_arrival)).await;
+        assert!(matches!(waited, Waited::Done) && t0.elapsed() < Duration::from_secs(1));
+        // The input just counted came before this waypoint's arrival.
+        let at_arrival = s.waypoint_inputs.load(Ordering::SeqCst);
+        let short = Duration::from_millis(100);
+        let waited = wait_at_waypoint(&s, mine, &stop, short, Some(at_arrival)).await;
+        assert!(matches!(waited, Waited::TimedOut));
+        let t0 = Instant::now();
+        assert!(matches!(
+            wait_at_waypoint(&s, mine, &stop, short, None).await,
+            Waited::Done
+        ));
+        assert!(t0.elapsed() >= short, "a pause lasts its time");
+        let _newer = s.take_robot();
+        let waited = wait_at_waypoint(&s, mine, &stop, long, Some(at_arrival)).await;
+        assert!(matches!(waited, Waited::Superseded));
+    }
 
     #[test]
     fn the_first_pass_starts_at_goal_index_and_later_passes_visit_all() {

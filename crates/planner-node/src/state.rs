@@ -205,6 +205,9 @@ pub struct Shared {
     pub failed_replan: Mutex<Option<(u64, Failure)>>,
     /// Whether the last `/cmd_vel` the follower sent was not a stop (shutdown then sends one).
     pub moving: AtomicBool,
+    /// How many inputs (std_msgs/Empty on `input_at_waypoint.input_topic`) have arrived: a
+    /// patrol waiting at a waypoint waits for this to pass its count at arrival.
+    pub waypoint_inputs: AtomicU64,
     /// The speed limit (m/s) last set on `speed_limit_topic` or by the speed zones, if one is
     /// in force.
     pub speed_limit: RwLock<Option<f64>>,
@@ -280,6 +283,7 @@ impl Shared {
             failed_replan: Mutex::new(None),
             arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
+            waypoint_inputs: AtomicU64::new(0),
             speed_limit: RwLock::new(None),
             speed_zones: RwLock::default(),
             navigator: Mutex::new(None),
