@@ -10,7 +10,7 @@ use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav_msgs::Path;
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
-use planner_core::grid::inflation::planning_grid;
+use planner_core::grid::inflation::{keepout_cost, planning_grid};
 use planner_core::grid::map::UNKNOWN;
 use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
 use planner_core::params::ParamError;
@@ -123,9 +123,10 @@ impl MapState {
     }
 
     /// Whether the grid's cell `i` is one nothing is known of, as a published costmap marks it
-    /// (-1, NO_INFORMATION): unknown on the map, and given no cost by a keepout mask (Nav2's
-    /// keepout filter writes its cost over an unknown cell, so a zone shows over unexplored
-    /// space too).
+    /// (-1, NO_INFORMATION): unknown on the map, and not in a keepout zone (a mask cell of a
+    /// cost above 0 over it: Nav2's keepout filter writes its cost over an unknown cell, so a
+    /// zone shows over unexplored space too; a free mask cell leaves it unknown here, where
+    /// `allow_unknown` still decides whether it may be crossed).
     pub fn is_unknown(&self, i: usize) -> bool {
         self.map.data()[i] == UNKNOWN
             && !self.keepout.as_deref().is_some_and(|mask| {
@@ -133,7 +134,8 @@ impl MapState {
                 let centre = info.cell_to_world(info.cell_at(i));
                 mask.info()
                     .world_to_cell(centre)
-                    .is_some_and(|c| mask.value(c) != UNKNOWN)
+                    .and_then(|c| keepout_cost(mask.value(c)))
+                    .is_some_and(|cost| cost > 0)
             })
     }
 
@@ -904,8 +906,9 @@ mod tests {
         assert!(state.grid.is_free(Cell::new(5, 2)));
     }
 
-    /// A published costmap marks a cell unknown only where the map is and no keepout mask gives
-    /// it a cost: a zone laid over unexplored space shows there, as Nav2's keepout filter's does.
+    /// A published costmap marks a cell unknown only where the map is and no keepout zone lies
+    /// over it: a zone laid over unexplored space shows there, as Nav2's keepout filter's does,
+    /// and the free rest of the mask leaves unexplored space unknown.
     #[test]
     fn a_keepout_zone_over_unknown_space_is_no_longer_unknown() {
         let mut map = wall_map();
@@ -915,7 +918,7 @@ mod tests {
             .map(|i| if i % w >= 30 { UNKNOWN } else { map.data()[i] })
             .collect();
         map = GridMap::new(*map.info(), data).unwrap();
-        // A mask over x 3.0-3.5 m (columns 30-34): 100, and unknown at column 34.
+        // A mask over x 3.0-3.5 m (columns 30-34): 100, free at column 33, unknown at 34.
         let mask = GridMap::new(
             MapInfo {
                 width: 5,
@@ -924,7 +927,11 @@ mod tests {
                 origin: Pose2::new(3.0, 0.0, 0.0),
             },
             (0..50)
-                .map(|i| if i % 5 == 4 { UNKNOWN } else { 100 })
+                .map(|i| match i % 5 {
+                    4 => UNKNOWN,
+                    3 => 0,
+                    _ => 100,
+                })
                 .collect(),
         )
         .unwrap();
@@ -938,7 +945,7 @@ mod tests {
         };
         let state = MapState::new(Arc::new(map.clone()), false, &settings).unwrap();
         let unknown: Vec<usize> = (0..w).filter(|&x| state.is_unknown(2 * w + x)).collect();
-        assert_eq!(unknown, vec![34, 35, 36, 37, 38, 39]);
+        assert_eq!(unknown, vec![33, 34, 35, 36, 37, 38, 39]);
         let bare =
             MapState::new(Arc::new(map), false, &GridSettings::without_keepout(allow)).unwrap();
         assert!((30..40).all(|x| bare.is_unknown(2 * w + x)));
