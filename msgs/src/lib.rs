@@ -509,6 +509,9 @@ pub mod nav2_msgs {
         pub const SPEED_PERCENT: u8 = 1;
         /// A speed filter, its mask in m/s.
         pub const SPEED_ABSOLUTE: u8 = 2;
+        /// A binary filter (a mask switching a parameter on and off), which this node does not
+        /// run.
+        pub const BINARY: u8 = 3;
     }
     /// nav2_msgs/srv/LoadMap request (map_server's `load_map`): the map's YAML, a path
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -207,8 +207,6 @@ impl Default for RecoveryParams {
     }
 }
 
-/// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup`,
-/// `drive_on_heading` and `wait` actions and makes the recoveries' motions.
 /// Nav2's InputAtWaypoint task executor (its parameter names and defaults, but off by
 /// default: a patrol without an inspection node would miss every waypoint).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -234,6 +232,8 @@ impl Default for InputAtWaypointParams {
     }
 }
 
+/// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup`,
+/// `drive_on_heading` and `wait` actions and makes the recoveries' motions.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BehaviorServerParams {

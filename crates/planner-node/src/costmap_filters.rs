@@ -21,7 +21,7 @@ use patrol_msgs::nav2_msgs::{CostmapFilterInfo, SpeedLimit};
 use patrol_msgs::nav_msgs::OccupancyGrid;
 use planner_core::geometry::Point2;
 use planner_core::grid::GridMap;
-use ros2_client::{MessageTypeName, Node, Subscription};
+use ros2_client::{MessageTypeName, Name, Node, Subscription};
 use ros_edge::naming::Naming;
 use std::future::Future;
 use std::pin::Pin;
@@ -84,11 +84,36 @@ impl SpeedConversion {
     }
 }
 
-/// The speed zones in force: the conversion of the last good info and its mask.
+/// The speed zones in force: the last good speed mask and how it reads.
 #[derive(Default)]
 pub struct SpeedZones {
     pub conversion: Option<SpeedConversion>,
     pub mask: Option<Arc<GridMap>>,
+}
+
+/// What a mask is for: a keepout zone, or speed zones read with a conversion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaskKind {
+    Keepout,
+    Speed(SpeedConversion),
+}
+
+impl MaskKind {
+    /// A keepout filter's masks, or a speed filter's read with `conversion` (which its info
+    /// always has: [`read_info`]).
+    fn of(filter: Filter, conversion: Option<SpeedConversion>) -> Self {
+        match (filter, conversion) {
+            (Filter::Speed, Some(c)) => MaskKind::Speed(c),
+            _ => MaskKind::Keepout,
+        }
+    }
+
+    fn filter(self) -> Filter {
+        match self {
+            MaskKind::Keepout => Filter::Keepout,
+            MaskKind::Speed(_) => Filter::Speed,
+        }
+    }
 }
 
 /// The masks of `filter` on `topic`: each one checked (a map's bounds and cell cap; in the
@@ -101,11 +126,11 @@ pub struct SpeedZones {
 pub async fn receive_masks(
     s: Arc<Shared>,
     o: Outputs,
-    filter: Filter,
+    what: MaskKind,
     topic: String,
-    sub: Subscription<OccupancyGrid>,
+    sub: Arc<Subscription<OccupancyGrid>>,
 ) {
-    let kind = filter.name();
+    let kind = what.filter().name();
     loop {
         let msg = match sub.async_take().await {
             Ok((msg, _)) => msg,
@@ -129,15 +154,21 @@ pub async fn receive_masks(
             Ok(Ok(mask)) => {
                 let info = *mask.info();
                 let mask = Some(Arc::new(mask));
-                match filter {
-                    Filter::Keepout => *s.keepout.write().expect("lock") = mask,
-                    Filter::Speed => s.speed_zones.write().expect("lock").mask = mask,
+                match what {
+                    MaskKind::Keepout => *s.keepout.write().expect("lock") = mask,
+                    // The mask and how it reads go into force together.
+                    MaskKind::Speed(conversion) => {
+                        *s.speed_zones.write().expect("lock") = SpeedZones {
+                            conversion: Some(conversion),
+                            mask,
+                        }
+                    }
                 }
                 info!(
                     "{kind} mask from {topic}: {} x {} cells of {:.3} m",
                     info.width, info.height, info.resolution
                 );
-                if filter == Filter::Keepout {
+                if what == MaskKind::Keepout {
                     s.settings_changed.notify_one();
                 }
             }
@@ -154,12 +185,20 @@ pub async fn receive_masks(
     }
 }
 
+/// How many mask readers one filter makes over the node's life. ros2-client keeps a dropped
+/// reader's id in the node's discovery announcements for good, so a publisher switching its
+/// info between topics without end would grow them without end; a real stack switches a few
+/// times (a floor changed, a mask server restarted elsewhere).
+const MAX_MASK_READERS: usize = 64;
+
 /// The filter infos of `filter` on `info_topic`, as Nav2's filters follow their
 /// `filter_info_topic`: each good one (of this filter's kind, naming a valid topic) subscribes
-/// the node to its mask topic, latched, in place of the previous one (a speed filter's also
-/// sets how its mask reads, at once), and its masks are taken by [`receive_masks`]. An info
-/// refused (another filter's, no topic) is reported on `/diagnostics` and the node stays on
-/// the mask topic it had.
+/// the node to its mask topic, latched, in place of the previous one, and its masks are taken
+/// by [`receive_masks`]; the last good mask stays in force until the new topic's first. A
+/// speed filter's info says how its mask reads: at once for the mask in force when the topic
+/// is the same (the same mask server, rescaled), else with the new topic's first mask. An info
+/// refused (another filter's, no topic, past [`MAX_MASK_READERS`]) is reported on
+/// `/diagnostics` and the node stays on the mask topic it had.
 pub async fn receive_filter_info(
     s: Arc<Shared>,
     o: Outputs,
@@ -172,9 +211,9 @@ pub async fn receive_filter_info(
     let kind = filter.name();
     // The current mask topic's reader and what it does with each mask; none until a good info.
     let mut masks: Pin<Box<dyn Future<Output = ()> + Send>> = Box::pin(std::future::pending());
-    // The info in force: the same one again (an info server restarted, a flood of them) keeps
-    // the reader it has rather than making another.
-    let mut in_force: Option<CostmapFilterInfo> = None;
+    // The info in force, the topic it names (resolved) and that topic's reader.
+    let mut in_force: Option<(CostmapFilterInfo, String, Arc<Subscription<OccupancyGrid>>)> = None;
+    let mut readers_made = 0;
     loop {
         let msg = tokio::select! {
             taken = sub.async_take() => taken,
@@ -187,39 +226,78 @@ pub async fn receive_filter_info(
                 continue;
             }
         };
-        if in_force.as_ref().is_some_and(|old| same_filter(old, &info)) {
-            debug!("{info_topic}: the info in force again; the mask reader stays");
+        // The same info again (an info server restarted, a flood of them): nothing to do.
+        if in_force
+            .as_ref()
+            .is_some_and(|(old, ..)| same_filter(old, &info))
+        {
+            debug!("{info_topic}: the info in force again");
             continue;
         }
-        let subscribed = read_info(&info, filter)
-            .and_then(|(topic, conversion)| Ok((subscribe(&node, &naming, topic)?, conversion)));
-        match subscribed {
-            Ok(((topic, reader), conversion)) => {
-                if filter == Filter::Keepout && (info.base, info.multiplier) != (0.0, 1.0) {
-                    // As Nav2's KeepoutFilter: it says so and reads the mask as occupancy anyway.
-                    warn!(
-                        "{info_topic}: a keepout filter reads its mask as occupancy: base {} and multiplier {} are not used (set 0 and 1)",
-                        info.base, info.multiplier
-                    );
-                }
+        let named = read_info(&info, filter).and_then(|(topic, conversion)| {
+            let name = naming
+                .name(topic)
+                .map_err(|e| format!("filter_mask_topic `{topic}`: {e}"))?;
+            Ok((name, conversion))
+        });
+        let (name, conversion) = match named {
+            Ok(named) => named,
+            Err(why) => {
+                refuse_info(&s, &o, kind, &info_topic, why).await;
+                continue;
+            }
+        };
+        let topic = name.to_string();
+        let same_topic = in_force.as_ref().filter(|(_, old, _)| *old == topic);
+        let reader = match same_topic {
+            // The same topic, rescaled: the reader it has, and the new scale on the mask in force.
+            Some((.., reader)) => {
                 if conversion.is_some() {
                     s.speed_zones.write().expect("lock").conversion = conversion;
                 }
-                info!("{info_topic}: {kind} masks from {topic}");
-                masks = Box::pin(receive_masks(s.clone(), o.clone(), filter, topic, reader));
-                in_force = Some(info);
+                reader.clone()
             }
-            Err(why) => {
-                refuse(
-                    &s,
-                    &o,
-                    format!(
-                        "{kind} filter info on {info_topic} refused, keeping the mask topic it had: {why}"
-                    ),
-                )
-                .await
+            None if readers_made >= MAX_MASK_READERS => {
+                let why = format!(
+                    "the mask topic has changed {MAX_MASK_READERS} times, the most one node follows: restart the node"
+                );
+                refuse_info(&s, &o, kind, &info_topic, why).await;
+                continue;
             }
+            None => {
+                // Creating a reader is a blocking DDS call (and a discovery announcement).
+                let (node, made) = (node.clone(), topic.clone());
+                let reader = tokio::task::spawn_blocking(move || subscribe(&node, &name, &made))
+                    .await
+                    .unwrap_or_else(|e| Err(format!("the subscribing task failed: {e}")));
+                match reader {
+                    Ok(reader) => {
+                        readers_made += 1;
+                        Arc::new(reader)
+                    }
+                    Err(why) => {
+                        refuse_info(&s, &o, kind, &info_topic, why).await;
+                        continue;
+                    }
+                }
+            }
+        };
+        if filter == Filter::Keepout && (info.base, info.multiplier) != (0.0, 1.0) {
+            // As Nav2's KeepoutFilter: it says so and reads the mask as occupancy anyway.
+            warn!(
+                "{info_topic}: a keepout filter reads its mask as occupancy: base {} and multiplier {} are not used (set 0 and 1)",
+                info.base, info.multiplier
+            );
         }
+        info!("{info_topic}: {kind} masks from {topic}");
+        masks = Box::pin(receive_masks(
+            s.clone(),
+            o.clone(),
+            MaskKind::of(filter, conversion),
+            topic.clone(),
+            reader.clone(),
+        ));
+        in_force = Some((info, topic, reader));
     }
 }
 
@@ -306,6 +384,9 @@ fn read_info(
                     .into(),
             )
         }
+        (_, CostmapFilterInfo::BINARY) => {
+            return Err("type 3 is a binary filter's, which this node does not run".into())
+        }
         (_, other) => return Err(format!("type {other} is no filter Nav2 knows")),
     };
     if info.filter_mask_topic.is_empty() {
@@ -314,29 +395,31 @@ fn read_info(
     Ok((&info.filter_mask_topic, conversion))
 }
 
-/// A latched reader of the masks on `topic` (resolved as every name of the node is), as
+/// A latched reader of the masks on `name` (resolved as every name of the node is), as
 /// Nav2's filters read a filter mask server's.
 fn subscribe(
     node: &Mutex<Node>,
-    naming: &Naming,
+    name: &Name,
     topic: &str,
-) -> Result<(String, Subscription<OccupancyGrid>), String> {
-    let name = naming
-        .name(topic)
-        .map_err(|e| format!("filter_mask_topic `{topic}`: {e}"))?;
+) -> Result<Subscription<OccupancyGrid>, String> {
     let latched = ros_edge::reliable(1, ros2_client::qos::Durability::TransientLocal);
     let mut node = node.lock().expect("lock");
     let t = node
         .create_topic(
-            &name,
+            name,
             MessageTypeName::new("nav_msgs", "OccupancyGrid"),
             &latched,
         )
         .map_err(|e| format!("filter_mask_topic `{topic}`: {e:?}"))?;
-    let reader = node
-        .create_subscription::<OccupancyGrid>(&t, Some(latched))
-        .map_err(|e| format!("filter_mask_topic `{topic}`: {e:?}"))?;
-    Ok((name.to_string(), reader))
+    node.create_subscription::<OccupancyGrid>(&t, Some(latched))
+        .map_err(|e| format!("filter_mask_topic `{topic}`: {e:?}"))
+}
+
+/// Reports a refused filter info on `/diagnostics`: the node stays on the mask topic it had.
+async fn refuse_info(s: &Shared, o: &Outputs, kind: &str, info_topic: &str, why: String) {
+    let message =
+        format!("{kind} filter info on {info_topic} refused, keeping the mask topic it had: {why}");
+    refuse(s, o, message).await
 }
 
 /// Reports a refused mask or filter info on `/diagnostics` (the node goes on as it was).

@@ -30,7 +30,7 @@
 //! `/diagnostics` status with the reason.
 
 use crate::actions;
-use crate::costmap_filters::{self, Filter};
+use crate::costmap_filters::{self, Filter, MaskKind};
 use crate::follow;
 use crate::inputs;
 use crate::lifecycle_services;
@@ -365,7 +365,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         (Filter::Keepout, &params.keepout_filter_info_topic),
         (Filter::Speed, &params.speed_filter_info_topic),
     ] {
-        if info_topic.is_empty() || (filter == Filter::Speed && !params.follow_plan) {
+        if info_topic.is_empty() {
+            continue;
+        }
+        if filter == Filter::Speed && !params.follow_plan {
+            warn!("speed_filter_info_topic `{info_topic}` not read: speed zones limit the node's own drive, and follow_plan is false");
             continue;
         }
         let t = topic(
@@ -692,9 +696,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         tasks.spawn(costmap_filters::receive_masks(
             shared.clone(),
             out.clone(),
-            Filter::Keepout,
+            MaskKind::Keepout,
             params.keepout_mask_topic.clone(),
-            sub,
+            Arc::new(sub),
         ));
     }
     tasks.spawn(inputs::remake_grid_on_change(

@@ -1,13 +1,13 @@
 //! Patrols: Nav2's `follow_waypoints` action (nav2_msgs/FollowWaypoints, Jazzy), driven by this
 //! node itself. The waypoints are put in the fastest order first (planner-core's route ordering:
 //! Held-Karp up to 12 points, 2-opt/Or-opt above, with the driving-time model at the chassis'
-//! limits; `order_waypoints`), then each leg is planned from where the robot is, followed,
-//! finished facing the waypoint's heading, and paused at for `waypoint_pause_duration` (Nav2's
-//! WaitAtWaypoint) and, with `input_at_waypoint`, waited at for a word from the inspection
-//! done there (Nav2's InputAtWaypoint); `number_of_loops` more passes follow, the first starting at `goal_index` as
-//! Nav2's does. A waypoint that cannot be planned to or reached in time is reported missed (its
-//! index in the request and the planner's Nav2 code) and the patrol goes on, or ends aborted
-//! with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
+//! limits; `order_waypoints`), then each leg is planned from where the robot is, followed, finished
+//! facing the waypoint's heading, and paused at for `waypoint_pause_duration` (Nav2's
+//! WaitAtWaypoint) and, with `input_at_waypoint`, waited at for a word from the inspection done
+//! there (Nav2's InputAtWaypoint); `number_of_loops` more passes follow, the first starting at
+//! `goal_index` as Nav2's does. A waypoint that cannot be planned to or reached in time is reported
+//! missed (its index in the request and the planner's Nav2 code) and the patrol goes on, or ends
+//! aborted with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
 //! acceleration limits.
 
 use crate::action_server::{Feedback, GoalStop};
@@ -225,7 +225,7 @@ async fn patrol(
             // An input counts from the arrival on, during the pause too.
             let inputs_before = s.waypoint_inputs.load(Ordering::SeqCst);
             let pause = Duration::from_secs_f64(s.params.waypoint_pause_duration);
-            match wait_at_waypoint(s, mine, stop, pause, None).await {
+            match wait_at_waypoint(s, mine, stop, pause, Until::Elapsed).await {
                 Waited::Done | Waited::TimedOut => {}
                 Waited::Stopped => return (stop.end_status(), result),
                 Waited::Superseded => return superseded(result, i),
@@ -233,7 +233,8 @@ async fn patrol(
             let input = &s.params.input_at_waypoint;
             if input.enabled {
                 let timeout = Duration::from_secs_f64(input.timeout);
-                match wait_at_waypoint(s, mine, stop, timeout, Some(inputs_before)).await {
+                let until = Until::InputAfter(inputs_before);
+                match wait_at_waypoint(s, mine, stop, timeout, until).await {
                     Waited::Done => info!("follow_waypoints: waypoint {i}: input received"),
                     Waited::Stopped => return (stop.end_status(), result),
                     Waited::Superseded => return superseded(result, i),
@@ -271,20 +272,31 @@ enum Waited {
     Superseded,
 }
 
-/// Stays at the reached waypoint for `duration` (Nav2's WaitAtWaypoint), or, given the input
-/// count at arrival, until an input arrives after it (Nav2's InputAtWaypoint, polling as it
-/// does at 50 Hz), or `duration` passes: [`Waited::TimedOut`].
+/// What a wait at a waypoint waits for.
+#[derive(Clone, Copy)]
+enum Until {
+    /// Its time to pass (Nav2's WaitAtWaypoint).
+    Elapsed,
+    /// An input counted after the given count, the count at the arrival (Nav2's
+    /// InputAtWaypoint), for at most the time given: [`Waited::TimedOut`].
+    InputAfter(u64),
+}
+
+/// Stays at the reached waypoint for `duration`, or until what `until` names comes; polled at
+/// 50 Hz, as Nav2's InputAtWaypoint polls.
 async fn wait_at_waypoint(
     s: &Shared,
     mine: u64,
     stop: &GoalStop,
     duration: Duration,
-    inputs_before: Option<u64>,
+    until: Until,
 ) -> Waited {
     let started = Instant::now();
     loop {
-        if inputs_before.is_some_and(|n| s.waypoint_inputs.load(Ordering::SeqCst) > n) {
-            return Waited::Done;
+        if let Until::InputAfter(n) = until {
+            if s.waypoint_inputs.load(Ordering::SeqCst) > n {
+                return Waited::Done;
+            }
         }
         if stop.requested() {
             return Waited::Stopped;
@@ -294,9 +306,9 @@ async fn wait_at_waypoint(
         }
         let left = duration.saturating_sub(started.elapsed());
         if left.is_zero() {
-            return match inputs_before {
-                Some(_) => Waited::TimedOut,
-                None => Waited::Done,
+            return match until {
+                Until::Elapsed => Waited::Done,
+                Until::InputAfter(_) => Waited::TimedOut,
             };
         }
         tokio::time::sleep(Duration::from_millis(20).min(left)).await;
@@ -314,7 +326,7 @@ fn failed(mut result: FollowWaypointsResult, i: usize) -> (GoalEndStatus, Follow
 
 #[cfg(test)]
 mod tests {
-    use super::{pass_order, wait_at_waypoint, Waited};
+    use super::{pass_order, wait_at_waypoint, Until, Waited};
     use crate::action_server::GoalStop;
     use crate::state::Shared;
     use planner_core::config::PlannerConfig;
@@ -331,7 +343,9 @@ mod tests {
         let s = Arc::new(Shared::new(NodeParams::default(), PlannerConfig::default()));
         let mine = s.take_robot();
         let stop = GoalStop::never();
-        let long = Duration::from_secs(5);
+        let (long, short) = (Duration::from_secs(5), Duration::from_millis(100));
+        // An input before the arrival, then one after it, 50 ms into the wait.
+        s.waypoint_inputs.fetch_add(1, Ordering::SeqCst);
         let at_arrival = s.waypoint_inputs.load(Ordering::SeqCst);
         let sender = s.clone();
         tokio::spawn(async move {
@@ -339,21 +353,24 @@ mod tests {
             sender.waypoint_inputs.fetch_add(1, Ordering::SeqCst);
         });
         let t0 = Instant::now();
-        let waited = wait_at_waypoint(&s, mine, &stop, long, Some(at_arrival)).await;
-        assert!(matches!(waited, Waited::Done) && t0.elapsed() < Duration::from_secs(1));
-        // The input just counted came before this waypoint's arrival.
-        let at_arrival = s.waypoint_inputs.load(Ordering::SeqCst);
-        let short = Duration::from_millis(100);
-        let waited = wait_at_waypoint(&s, mine, &stop, short, Some(at_arrival)).await;
+        let until = Until::InputAfter(at_arrival);
+        let waited = wait_at_waypoint(&s, mine, &stop, long, until).await;
+        assert!(matches!(waited, Waited::Done));
+        let took = t0.elapsed();
+        assert!(
+            took >= Duration::from_millis(50),
+            "not the input before the arrival: {took:?}"
+        );
+        assert!(took < Duration::from_secs(1), "{took:?}");
+        // No input after this arrival: the timeout.
+        let until = Until::InputAfter(s.waypoint_inputs.load(Ordering::SeqCst));
+        let waited = wait_at_waypoint(&s, mine, &stop, short, until).await;
         assert!(matches!(waited, Waited::TimedOut));
         let t0 = Instant::now();
-        assert!(matches!(
-            wait_at_waypoint(&s, mine, &stop, short, None).await,
-            Waited::Done
-        ));
-        assert!(t0.elapsed() >= short, "a pause lasts its time");
+        let waited = wait_at_waypoint(&s, mine, &stop, short, Until::Elapsed).await;
+        assert!(matches!(waited, Waited::Done) && t0.elapsed() >= short);
         let _newer = s.take_robot();
-        let waited = wait_at_waypoint(&s, mine, &stop, long, Some(at_arrival)).await;
+        let waited = wait_at_waypoint(&s, mine, &stop, long, until).await;
         assert!(matches!(waited, Waited::Superseded));
     }
 

@@ -1,8 +1,8 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
-//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header
-//! stamps from the system clock (or `/clock`, with `use_sim_time`), SIGINT and SIGTERM, the reliable QoS profile set explicitly on
-//! every topic (ros2-client's defaults differ from rclpy's), logging to the terminal and
-//! `/rosout`, and reading a node's block of a ROS 2 parameter file (`parameters`).
+//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header stamps
+//! from the system clock (or `/clock`, with `use_sim_time`), SIGINT and SIGTERM, the reliable QoS
+//! profile set explicitly on every topic (ros2-client's defaults differ from rclpy's), logging to
+//! the terminal and `/rosout`, and reading a node's block of a ROS 2 parameter file (`parameters`).
 
 pub mod logging;
 pub mod naming;
