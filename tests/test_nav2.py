@@ -154,7 +154,7 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         served = {name for name, _ in get_action_names_and_types(ros.node)}
         assert {"/compute_path_to_pose", "/compute_path_through_poses"} <= served, served
         driving = {"/navigate_to_pose", "/navigate_through_poses", "/follow_waypoints", "/spin", "/backup",
-                   "/drive_on_heading", "/wait"}
+                   "/drive_on_heading", "/wait", "/assisted_teleop"}
         assert not served & driving, served
         services = {name for name, _ in ros.node.get_service_names_and_types()}
         assert "/is_path_valid" in services and "/global_costmap/get_costmap" not in services, services

@@ -25,6 +25,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
   room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
 - A patrol (follow_waypoints) waits at each waypoint for the inspection's word (Nav2's
   InputAtWaypoint): a waypoint without one is missed after the timeout (601), the patrol goes on.
+- Assisted teleop (nav2_simple_commander's assistedTeleop()): the operator's command toward the
+  pillar is slowed and stopped short of it; preempt_teleop ends it, its time allowance too.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
   and driveOnHeading()): the robot turns through the angle, backs up the distance, drives on,
   a back-up towards the pillar stops short of it with COLLISION_AHEAD (714), a back-up sideways
@@ -353,6 +355,47 @@ def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):
     assert [f.current_waypoint for f in feedback][-1] == 1
     assert math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) < 0.15
     assert time.time() - t0 > INPUT_TIMEOUT, "the first waypoint waited its timeout"
+
+
+def test_assisted_teleop_keeps_the_operators_robot_off_the_pillar(rig):
+    """Nav2's AssistedTeleop, as nav2_simple_commander's assistedTeleop() sends it: the operator
+    drives the robot at the pillar (0.5 m/s north on /cmd_vel_teleop, from below it); the node
+    passes the command on, scaled down as the poses it leads to within a second near the pillar,
+    so the robot slows and stops short of touching it (its radius, 0.25 m, from the pillar's
+    face at y 2 m), never above 0.6 m/s; a std_msgs/Empty on /preempt_teleop ends the goal,
+    succeeded. A second goal with a time allowance of 1 s ends with TIMEOUT (731)."""
+    from nav2_msgs.action import AssistedTeleop
+    from std_msgs.msg import Empty
+
+    ros, robot, _ = rig
+    robot.blocked = False
+    robot.x, robot.y, robot.yaw = 2.75, 0.8, math.pi / 2
+    operator = ros.node.create_publisher(Twist, "/cmd_vel_teleop", 10)
+    done = ros.node.create_publisher(Empty, "/preempt_teleop", 10)
+    north = Twist()
+    north.linear.x = 0.5
+    ros.node.create_timer(0.05, lambda: operator.publish(north))
+    client = ActionClient(ros.node, AssistedTeleop, "assisted_teleop")
+    # A probe that ends at once: a time allowance of 1 ns (TIMEOUT), before the robot moves.
+    probe = AssistedTeleop.Goal()
+    probe.time_allowance.nanosec = 1
+    ros.wait_action_answers(client, probe, "the assisted_teleop action")
+    sent = client.send_goal_async(AssistedTeleop.Goal())
+    handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "the teleop goal's acceptance")
+    result = handle.get_result_async()
+    ros.spin_for(6.0)
+    assert 1.4 < robot.y < 2.0 - 0.25 + 0.1, f"slowed and stopped short of the pillar: y {robot.y:.3f}"
+    assert abs(robot.cmds[-1].linear.x) < 0.05, robot.cmds[-1]
+    assert max(c.linear.x for c in robot.cmds) <= 0.6 + 1e-9
+    ros.wait_matched(done, "/preempt_teleop")
+    done.publish(Empty())
+    ros.spin_until(result.done, 10, "the teleop's end on preempt_teleop")
+    assert result.result().status == GoalStatus.STATUS_SUCCEEDED, result.result().result.error_msg
+    timed = AssistedTeleop.Goal()
+    timed.time_allowance.sec = 1
+    r, feedback = behave(ros, client, timed, 10)
+    assert (r.status, r.result.error_code) == (GoalStatus.STATUS_ABORTED, 731), r.result.error_msg
+    assert feedback and feedback[-1].current_teleop_duration.sec >= 0
 
 
 def test_the_behavior_servers_actions(rig):

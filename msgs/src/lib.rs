@@ -541,7 +541,8 @@ pub mod nav2_msgs {
         pub time_allowance: Duration,
     }
     /// nav2_msgs/action/Spin result (Jazzy's codes: NONE 0, UNKNOWN 700, TIMEOUT 701, TF_ERROR
-    /// 702, COLLISION_AHEAD 703), and BackUp's (710-714), Wait's: the same fields
+    /// 702, COLLISION_AHEAD 703), and BackUp's (710-714), Wait's, AssistedTeleop's (UNKNOWN 730,
+    /// TIMEOUT 731, TF_ERROR 732): the same fields
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct BehaviorResult {
         pub total_elapsed_time: Duration,
@@ -582,6 +583,16 @@ pub mod nav2_msgs {
     pub struct WaitGoal {
         pub time: Duration,
     }
+    /// nav2_msgs/action/AssistedTeleop goal: how long the operator may drive (0: no limit)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct AssistedTeleopGoal {
+        pub time_allowance: Duration,
+    }
+    /// nav2_msgs/action/AssistedTeleop feedback: how long the operator has been driving
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct AssistedTeleopFeedback {
+        pub current_teleop_duration: Duration,
+    }
     /// nav2_msgs/action/Wait feedback
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct WaitFeedback {
@@ -604,6 +615,8 @@ pub mod nav2_msgs {
         DriveOnHeadingGoal,
         WaitGoal,
         WaitFeedback,
+        AssistedTeleopGoal,
+        AssistedTeleopFeedback,
         NavigateToPoseGoal,
         NavigateToPoseResult,
         NavigateToPoseFeedback,

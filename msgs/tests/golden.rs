@@ -698,4 +698,27 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::WAIT_FEEDBACK,
     );
+    check(
+        "AssistedTeleop goal",
+        AssistedTeleopGoal {
+            time_allowance: d(30, 5),
+        },
+        g::ASSISTED_TELEOP_GOAL,
+    );
+    check(
+        "AssistedTeleop result",
+        BehaviorResult {
+            total_elapsed_time: d(30, 6),
+            error_code: 731,
+            error_msg: "past its time".into(),
+        },
+        g::ASSISTED_TELEOP_RESULT,
+    );
+    check(
+        "AssistedTeleop feedback",
+        AssistedTeleopFeedback {
+            current_teleop_duration: d(12, 7),
+        },
+        g::ASSISTED_TELEOP_FEEDBACK,
+    );
 }

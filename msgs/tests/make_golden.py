@@ -14,8 +14,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import (BackUp, ComputePathThroughPoses, ComputePathToPose, DriveOnHeading,
-                              FollowWaypoints, NavigateThroughPoses, NavigateToPose, Spin, Wait)
+from nav2_msgs.action import (AssistedTeleop, BackUp, ComputePathThroughPoses, ComputePathToPose,
+                              DriveOnHeading, FollowWaypoints, NavigateThroughPoses, NavigateToPose,
+                              Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import GetCostmap, IsPathValid, LoadMap
 from rosgraph_msgs.msg import Clock
@@ -159,6 +160,15 @@ def messages():
     f = Wait.Feedback()
     f.time_left.sec, f.time_left.nanosec = 3, 80
     out["WAIT_FEEDBACK"] = f
+    g = AssistedTeleop.Goal()
+    g.time_allowance.sec, g.time_allowance.nanosec = 30, 5
+    out["ASSISTED_TELEOP_GOAL"] = g
+    r = AssistedTeleop.Result(error_code=AssistedTeleop.Result.TIMEOUT, error_msg="past its time")
+    r.total_elapsed_time.sec, r.total_elapsed_time.nanosec = 30, 6
+    out["ASSISTED_TELEOP_RESULT"] = r
+    f = AssistedTeleop.Feedback()
+    f.current_teleop_duration.sec, f.current_teleop_duration.nanosec = 12, 7
+    out["ASSISTED_TELEOP_FEEDBACK"] = f
     out["SPEED_LIMIT"] = SpeedLimit(header=header(), percentage=True, speed_limit=42.5)
     out["LOAD_MAP_REQUEST"] = LoadMap.Request(map_url="/maps/floor2.yaml")
     grid = OccupancyGrid(header=header())

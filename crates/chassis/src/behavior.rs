@@ -1,6 +1,7 @@
 //! The motions of Nav2's behavior server (nav2_behaviors) a recovery makes when following a path
 //! got nowhere: `Spin` turns on the spot through a given angle, `DriveOnHeading` drives straight
-//! forwards or back (a back-up) a given distance. Each is a small state machine like the path
+//! forwards or back (a back-up) a given distance; `Teleop` passes on an operator's command as
+//! [`assisted`] scales it (Nav2's AssistedTeleop). Each is a small state machine like the path
 //! follower: fed the robot's pose each control cycle, it says what to command and whether it is
 //! done, and it measures its own progress (the angle turned, the distance driven) as Nav2's
 //! feedback reports it.
@@ -145,11 +146,56 @@ impl DriveOnHeading {
     }
 }
 
+/// Teleoperation as Nav2's AssistedTeleop assists it: the operator's command, each cycle the
+/// one [`assisted`] leaves of it (set by whoever runs the motion, which has the costmap). It is
+/// never done: the operator, or a time allowance, ends it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Teleop {
+    pub twist: Twist2,
+}
+
+/// Nav2's AssistedTeleop (`onCycleUpdate`): the poses `twist` leads to from `pose`, every `step`
+/// seconds up to `projection` seconds, are checked with `collides`; at the first that collides,
+/// the command is stopped if it is the first step, else scaled by the time to it over
+/// `projection`, so the robot slows as it nears an obstacle and stops short of it. A command
+/// that leads into nothing passes as it is.
+pub fn assisted(
+    twist: Twist2,
+    pose: &Pose,
+    projection: f64,
+    step: f64,
+    collides: impl Fn(&Pose) -> bool,
+) -> Twist2 {
+    let mut projected = *pose;
+    let mut k = 1;
+    // As Nav2: time = step, 2 step, ... while below `projection`.
+    while (k as f64) * step < projection {
+        projected = Pose {
+            x: projected.x + step * twist.linear * projected.yaw.cos(),
+            y: projected.y + step * twist.linear * projected.yaw.sin(),
+            yaw: projected.yaw + step * twist.angular,
+        };
+        if collides(&projected) {
+            if k == 1 {
+                return Twist2::STOP;
+            }
+            let scale = (k as f64) * step / projection;
+            return Twist2 {
+                linear: twist.linear * scale,
+                angular: twist.angular * scale,
+            };
+        }
+        k += 1;
+    }
+    twist
+}
+
 /// A behaviour's motion, as the node's control loop runs it.
 #[derive(Clone, Debug)]
 pub enum Motion {
     Spin(Spin),
     Drive(DriveOnHeading),
+    Teleop(Teleop),
 }
 
 impl Motion {
@@ -158,14 +204,17 @@ impl Motion {
         match self {
             Motion::Spin(s) => s.command(pose, limits),
             Motion::Drive(d) => d.command(pose, limits),
+            Motion::Teleop(t) => (t.twist, Status::Running),
         }
     }
 
-    /// How far it has come: the angle turned (rad) or the distance driven (m).
+    /// How far it has come: the angle turned (rad) or the distance driven (m); a teleop
+    /// measures nothing (0).
     pub fn progress(&self) -> f64 {
         match self {
             Motion::Spin(s) => s.turned(),
             Motion::Drive(d) => d.driven(),
+            Motion::Teleop(_) => 0.0,
         }
     }
 
@@ -173,10 +222,11 @@ impl Motion {
     /// spacing (s), not beyond the motion's end, as nav2_behaviors simulates ahead before each
     /// command (`simulate_ahead_time`): the caller checks each against its costmap. A spin stays
     /// where it is and only turns, so for a round robot its one pose is the one to check; a
-    /// drive runs along the heading (back, for a back-up), at most its remaining distance.
+    /// drive runs along the heading (back, for a back-up), at most its remaining distance. A
+    /// teleop's command is checked where it is made ([`assisted`]): here only its pose.
     pub fn ahead(&self, pose: &Pose, limits: &TwistLimits, horizon: f64, step: f64) -> Vec<Pose> {
         match self {
-            Motion::Spin(_) => vec![*pose],
+            Motion::Spin(_) | Motion::Teleop(_) => vec![*pose],
             Motion::Drive(drive) => {
                 let speed = drive.speed.min(limits.max_linear);
                 let reach = (speed * horizon.max(0.0)).min(drive.remaining());
@@ -230,6 +280,33 @@ mod tests {
             sim.step(applied, dt);
         }
         (sim.pose, sent, false)
+    }
+
+    /// Nav2's AssistedTeleop scaling, a wall 1 m ahead and a 2 s projection in 0.1 s steps: at
+    /// 0.5 m/s the robot would reach it after 2 s, past the projection, so the command passes;
+    /// at 1 m/s after 1 s (the 10th step), so it is halved, turn and all; at the wall the first
+    /// step collides: a stop; backing away, or turning on the spot, passes.
+    #[test]
+    fn an_assisted_command_slows_as_it_nears_an_obstacle_and_stops_at_it() {
+        let pose = Pose::default();
+        let wall = |p: &Pose| p.x >= 1.0 - 1e-9;
+        let twist = |linear, angular| Twist2 { linear, angular };
+        let slow = twist(0.5, 0.0);
+        assert_eq!(assisted(slow, &pose, 2.0, 0.1, wall), slow);
+        let scaled = assisted(twist(1.0, 0.0), &pose, 2.0, 0.1, wall);
+        assert!((scaled.linear - 0.5).abs() < 1e-9, "{scaled:?}");
+        let turning = assisted(twist(1.0, 0.2), &pose, 2.0, 0.1, wall);
+        assert!(turning.linear < 1.0, "{turning:?}");
+        assert!(
+            (turning.angular / turning.linear - 0.2).abs() < 1e-9,
+            "scaled alike: {turning:?}"
+        );
+        let at = Pose { x: 0.96, ..pose };
+        assert_eq!(assisted(twist(1.0, 0.2), &at, 2.0, 0.1, wall), Twist2::STOP);
+        let back = twist(-0.3, 0.0);
+        assert_eq!(assisted(back, &at, 2.0, 0.1, wall), back);
+        let turn = twist(0.0, 0.4);
+        assert_eq!(assisted(turn, &at, 2.0, 0.1, wall), turn);
     }
 
     #[test]

@@ -234,19 +234,30 @@ impl Default for InputAtWaypointParams {
 
 /// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup`,
 /// `drive_on_heading` and `wait` actions and makes the recoveries' motions.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BehaviorServerParams {
     /// How far ahead (s) a spin's or back-up's motion is checked against the costmap before
     /// each command; a motion that would hit an obstacle within it stops and fails
     /// (COLLISION_AHEAD). Nav2's default 2.
     pub simulate_ahead_time: f64,
+    /// assisted_teleop: how far ahead (s) an operator's command is projected; one that would
+    /// reach an obstacle within it is scaled down by the time to it over this. Nav2's 1.
+    pub projection_time: f64,
+    /// assisted_teleop: the spacing (s) of the projected poses. Nav2's 0.1.
+    pub simulation_time_step: f64,
+    /// assisted_teleop: the operator's commands (geometry_msgs/Twist, or TwistStamped with
+    /// `enable_stamped_cmd_vel`, as Nav2 reads them). Nav2's `cmd_vel_teleop`.
+    pub cmd_vel_teleop: String,
 }
 
 impl Default for BehaviorServerParams {
     fn default() -> Self {
         Self {
             simulate_ahead_time: 2.0,
+            projection_time: 1.0,
+            simulation_time_step: 0.1,
+            cmd_vel_teleop: "cmd_vel_teleop".into(),
         }
     }
 }
@@ -356,8 +367,13 @@ impl NodeParams {
                     .into(),
             );
         }
-        if !within(self.behavior_server.simulate_ahead_time, 0.0, 10.0) {
-            return Err("behavior_server: simulate_ahead_time within 0..=10 s".into());
+        let b = &self.behavior_server;
+        if !within(b.simulate_ahead_time, 0.0, 10.0)
+            || !within(b.projection_time, 0.1, 10.0)
+            || !within(b.simulation_time_step, 0.01, b.projection_time)
+            || b.cmd_vel_teleop.is_empty()
+        {
+            return Err("behavior_server: simulate_ahead_time within 0..=10 s, projection_time within 0.1..=10 s, simulation_time_step within 0.01 s..=projection_time, cmd_vel_teleop a topic".into());
         }
         for (key, topic) in [
             ("keepout_mask_topic", &self.keepout_mask_topic),
@@ -953,6 +969,11 @@ mod tests {
                 "ahead.yaml",
                 "    behavior_server: {simulate_ahead_time: -1.0}\n",
                 "behavior_server",
+            ),
+            (
+                "teleop_step.yaml",
+                "    behavior_server: {projection_time: 1.0, simulation_time_step: 2.0}\n",
+                "simulation_time_step",
             ),
         ] {
             let err = load_parameter_file(&write(name, block))

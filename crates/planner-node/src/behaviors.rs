@@ -40,7 +40,7 @@ const TICK: Duration = Duration::from_millis(100);
 
 /// How long a behaviour goes on without fresh odometry (`pose_timeout`) before it fails with
 /// TF_ERROR, at its start and while its motion runs.
-const STALE_LIMIT: Duration = Duration::from_secs(1);
+pub const STALE_LIMIT: Duration = Duration::from_secs(1);
 
 /// How long a behaviour waits for the robot to come to rest before its motion starts: braking
 /// from the top speeds takes 1.2 s at the default limits.
@@ -235,52 +235,57 @@ where
 }
 
 /// A stop asked for, or the robot no longer this goal's.
-fn interrupted(s: &Shared, mine: u64, stop: &GoalStop) -> Option<BehaviorEnd> {
+pub fn interrupted(s: &Shared, mine: u64, stop: &GoalStop) -> Option<BehaviorEnd> {
     if stop.requested() {
         return Some(BehaviorEnd::Stopped);
     }
     taken(s, mine).map(BehaviorEnd::Taken)
 }
 
-fn no_pose() -> String {
+pub fn no_pose() -> String {
     "the robot's pose is not available: no fresh /odom".into()
 }
 
 /// Why the motion may not go on from `pose`, if it may not: a pose it would pass within
-/// `behavior_server.simulate_ahead_time` is off the map, or within the robot's radius of an
-/// obstacle on the grid the node plans on (the robot would touch it: the planner's wider
-/// inflated band is where a path may not run, not where the robot may not be), or in a keepout
-/// zone (`keepout_mask_topic`; not if it starts in one), or there is no map to check against.
+/// `behavior_server.simulate_ahead_time` is not clear ([`clear_from`]), or there is no map to
+/// check against.
 fn collision_ahead(s: &Shared, motion: &Motion, pose: Pose2) -> Option<String> {
-    let Some(map) = s.map.read().expect("lock").clone() else {
+    let Some(clear) = clear_from(s, pose) else {
         return Some("no map to check the motion against".into());
     };
-    let radius = s.live.read().expect("lock").config.costmap.robot_radius;
     let ahead = motion.ahead(
         &chassis_pose(pose),
         &s.params.twist_limits,
         s.params.behavior_server.simulate_ahead_time,
         AHEAD_STEP_S,
     );
-    let grid = &map.grid;
-    // A keepout zone (a lethal cell that is no obstacle: `keepout_mask_topic`) counts as an
-    // obstacle for the robot's centre, unless the robot is in one already: then it may move,
-    // to get out.
-    let kept_out = |c| grid.cost(c) >= LETHAL;
-    let inside = grid
+    let radius = s.live.read().expect("lock").config.costmap.robot_radius;
+    ahead.iter().find(|p| !clear(p)).map(|p| {
+        format!(
+            "collision ahead: the robot would be within its radius ({radius} m) of an \
+             obstacle, or in a keepout zone, at ({:.2}, {:.2})",
+            p.x, p.y
+        )
+    })
+}
+
+/// Where the robot may be, for a motion starting at `pose`: a pose is clear when it is on the
+/// grid the node plans on, at least the robot's radius from its obstacles (the robot would
+/// touch one nearer: the planner's wider inflated band is where a path may not run, not where
+/// the robot may not be), and out of keepout zones (`keepout_mask_topic`: a lethal cell that
+/// is no obstacle), unless the robot is in one already: then it may move, to get out. `None`
+/// without a map.
+pub fn clear_from(s: &Shared, pose: Pose2) -> Option<impl Fn(&chassis::Pose) -> bool> {
+    let map = s.map.read().expect("lock").clone()?;
+    let radius = s.live.read().expect("lock").config.costmap.robot_radius;
+    let inside = map
+        .grid
         .cell_at(Point2::new(pose.x, pose.y))
-        .is_some_and(kept_out);
-    ahead.iter().find_map(|p| {
-        let clear = grid
-            .cell_at(Point2::new(p.x, p.y))
-            .is_some_and(|c| grid.clearance(c) >= radius && (inside || !kept_out(c)));
-        (!clear).then(|| {
-            format!(
-                "collision ahead: the robot would be within its radius ({radius} m) of an \
-                 obstacle, or in a keepout zone, at ({:.2}, {:.2})",
-                p.x, p.y
-            )
-        })
+        .is_some_and(|c| map.grid.cost(c) >= LETHAL);
+    Some(move |p: &chassis::Pose| {
+        let grid = &map.grid;
+        grid.cell_at(Point2::new(p.x, p.y))
+            .is_some_and(|c| grid.clearance(c) >= radius && (inside || grid.cost(c) < LETHAL))
     })
 }
 
@@ -327,7 +332,7 @@ fn drive_feedback(progress: f64) -> BackUpFeedback {
 }
 
 /// A goal's `time_allowance`: zero (or negative) is no limit, as in nav2_behaviors.
-fn allowance(d: &DurationMsg) -> Option<Duration> {
+pub fn allowance(d: &DurationMsg) -> Option<Duration> {
     let secs = f64::from(d.sec) + f64::from(d.nanosec) * 1e-9;
     (secs > 0.0).then(|| Duration::from_secs_f64(secs))
 }

@@ -5,7 +5,7 @@
 use crate::result::{Failure, ResultCode};
 use patrol_msgs::builtin_interfaces::{Duration, Time};
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Vector3};
+use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Twist, Vector3};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{Costmap, CostmapMetaData};
 use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
@@ -258,6 +258,17 @@ pub fn path_msg(waypoints: &[Point2], goal_yaw: f64, spacing: f64, header: Heade
         })
         .collect();
     Path { header, poses }
+}
+
+/// An operator's Twist as a differential drive's command: its forward speed and yaw rate (the
+/// rest it cannot do); a command with a NaN or infinite part is a stop.
+pub fn twist2(t: &Twist) -> chassis::Twist2 {
+    let (linear, angular) = (t.linear.x, t.angular.z);
+    if linear.is_finite() && angular.is_finite() {
+        chassis::Twist2 { linear, angular }
+    } else {
+        chassis::Twist2::STOP
+    }
 }
 
 /// A planar pose as the chassis crate's follower, progress checker and motions take it.

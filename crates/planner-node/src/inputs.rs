@@ -9,6 +9,7 @@ use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{path_length, GoalRequest, GoalSlot, MapState, Shared};
+use chassis::Twist2;
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
@@ -305,6 +306,34 @@ pub async fn receive_waypoint_inputs(s: Arc<Shared>, sub: Subscription<Empty>) {
                     .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
             }
             Err(e) => warn!("{}: {e:?}", s.params.input_at_waypoint.input_topic),
+        }
+    }
+}
+
+/// The operator's commands for assisted_teleop (`behavior_server.cmd_vel_teleop`): the latest
+/// is kept, with when it came, whatever the node is doing (Nav2's behavior server keeps its
+/// subscription too).
+pub async fn receive_teleop<M>(s: Arc<Shared>, sub: Subscription<M>, twist: fn(&M) -> Twist2)
+where
+    M: ros2_client::Message + 'static,
+{
+    loop {
+        match sub.async_take().await {
+            Ok((msg, _)) => *s.teleop.lock().expect("lock") = Some((twist(&msg), Instant::now())),
+            Err(e) => warn!("{}: {e:?}", s.params.behavior_server.cmd_vel_teleop),
+        }
+    }
+}
+
+/// `preempt_teleop` (std_msgs/Empty): the operator is done; each one is counted.
+pub async fn receive_teleop_preempts(s: Arc<Shared>, sub: Subscription<Empty>) {
+    loop {
+        match sub.async_take().await {
+            Ok(_) => {
+                s.teleop_preempts
+                    .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            }
+            Err(e) => warn!("preempt_teleop: {e:?}"),
         }
     }
 }

@@ -7,6 +7,7 @@
 
 mod action_server;
 mod actions;
+mod assisted_teleop;
 mod behaviors;
 mod convert;
 mod costmap_filters;

@@ -11,6 +11,7 @@
 //! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
 //! | in | `input_at_waypoint.input_topic` (`input_at_waypoint/input`) | std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan` and `input_at_waypoint.enabled`) |
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
+//! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
@@ -43,20 +44,23 @@ use anyhow::Result;
 use chassis::Twist2;
 use log::{error, info, warn};
 use patrol_msgs::diagnostic_msgs::DiagnosticArray;
-use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped, Twist, Vector3};
+use patrol_msgs::geometry_msgs::{
+    PoseStamped, PoseWithCovarianceStamped, Twist, TwistStamped, Vector3,
+};
 use patrol_msgs::lifecycle_msgs::{
     ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
     GetAvailableTransitionsResponse, GetStateResponse, TransitionEvent,
 };
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
-    BackUpFeedback, BackUpGoal, BehaviorResult, ComputePathResult, ComputePathThroughPosesGoal,
-    ComputePathToPoseGoal, CostmapFilterInfo, DriveOnHeadingGoal, EmptyFeedback,
-    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest,
-    GetCostmapResponse, IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
-    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
-    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback,
-    SpinGoal, WaitFeedback, WaitGoal,
+    AssistedTeleopFeedback, AssistedTeleopGoal, BackUpFeedback, BackUpGoal, BehaviorResult,
+    ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
+    DriveOnHeadingGoal, EmptyFeedback, FollowWaypointsFeedback, FollowWaypointsGoal,
+    FollowWaypointsResult, GetCostmapRequest, GetCostmapResponse, IsPathValidRequest,
+    IsPathValidResponse, LoadMapRequest, LoadMapResponse, NavigateThroughPosesFeedback,
+    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
+    NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback, SpinGoal, WaitFeedback,
+    WaitGoal,
 };
 use patrol_msgs::nav_msgs::{
     GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
@@ -102,7 +106,8 @@ fn action_qos() -> ActionServerQosPolicies {
 /// Serves what the rest of a Nav2 stack serves, for a node standing alone (`follow_plan`): the
 /// actions that drive the robot, bt_navigator's `navigate_to_pose` and `navigate_through_poses`
 /// (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs) and behavior_server's
-/// `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs), and the global costmap's
+/// `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs) and `assisted_teleop`
+/// (assisted_teleop.rs), and the global costmap's
 /// `global_costmap/get_costmap` (actions.rs). A node standing in for planner_server in a whole
 /// Nav2 stack (`follow_plan: false`, as the README sets it up) serves none of them, so none of
 /// that stack's requests (a behaviour tree's Spin, a user's goToPose) can reach this node
@@ -185,6 +190,54 @@ fn serve_standalone(
             action_qos(),
         )?,
     );
+    // Nav2's AssistedTeleop: the action, the operator's commands (Twist, or TwistStamped as
+    // Nav2 reads them with enable_stamped_cmd_vel) and preempt_teleop, with Nav2's QoS
+    // (system defaults: reliable, volatile, depth 10).
+    let assisted_teleop = AsyncActionServer::new(
+        node.create_action_server::<AssistedTeleopGoal, BehaviorResult, AssistedTeleopFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("assisted_teleop")?,
+            &ActionTypeName::new("nav2_msgs", "AssistedTeleop"),
+            action_qos(),
+        )?,
+    );
+    let volatile = ros_edge::reliable(10, Durability::Volatile);
+    let teleop_name = naming.name(&shared.params.behavior_server.cmd_vel_teleop)?;
+    if shared.params.enable_stamped_cmd_vel {
+        let t = node.create_topic(
+            &teleop_name,
+            MessageTypeName::new("geometry_msgs", "TwistStamped"),
+            &volatile,
+        )?;
+        let sub = node.create_subscription::<TwistStamped>(&t, Some(volatile.clone()))?;
+        tasks.spawn(inputs::receive_teleop(shared.clone(), sub, |m| {
+            crate::convert::twist2(&m.twist)
+        }));
+    } else {
+        let t = node.create_topic(
+            &teleop_name,
+            MessageTypeName::new("geometry_msgs", "Twist"),
+            &volatile,
+        )?;
+        let sub = node.create_subscription::<Twist>(&t, Some(volatile.clone()))?;
+        tasks.spawn(inputs::receive_teleop(
+            shared.clone(),
+            sub,
+            crate::convert::twist2,
+        ));
+    }
+    let t = node.create_topic(
+        &naming.name("preempt_teleop")?,
+        MessageTypeName::new("std_msgs", "Empty"),
+        &volatile,
+    )?;
+    let preempt = node.create_subscription::<Empty>(&t, Some(volatile))?;
+    tasks.spawn(inputs::receive_teleop_preempts(shared.clone(), preempt));
+    tasks.spawn(crate::assisted_teleop::serve(
+        shared.clone(),
+        out.clone(),
+        assisted_teleop,
+    ));
     tasks.spawn(crate::patrol::serve(
         shared.clone(),
         out.clone(),

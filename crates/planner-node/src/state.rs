@@ -6,6 +6,7 @@ use crate::localization::{compose, KnownFrames, Localization};
 use crate::result::{Failure, ResultCode};
 use chassis::behavior::{Motion, Status as MotionStatus};
 use chassis::follower::Follower;
+use chassis::Twist2;
 use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav_msgs::Path;
 use planner_core::config::PlannerConfig;
@@ -210,6 +211,12 @@ pub struct Shared {
     /// How many inputs (std_msgs/Empty on `input_at_waypoint.input_topic`) have arrived: a
     /// patrol waiting at a waypoint waits for this to pass its count at arrival.
     pub waypoint_inputs: AtomicU64,
+    /// The operator's latest command on `behavior_server.cmd_vel_teleop`, and when it came
+    /// (assisted_teleop.rs).
+    pub teleop: Mutex<Option<(Twist2, Instant)>>,
+    /// How many std_msgs/Empty have arrived on `preempt_teleop`: an assisted teleop ends when
+    /// this passes its count at the start.
+    pub teleop_preempts: AtomicU64,
     /// The speed limit (m/s) last set on `speed_limit_topic` or by the speed zones, if one is
     /// in force.
     pub speed_limit: RwLock<Option<f64>>,
@@ -286,6 +293,8 @@ impl Shared {
             arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
             waypoint_inputs: AtomicU64::new(0),
+            teleop: Mutex::new(None),
+            teleop_preempts: AtomicU64::new(0),
             speed_limit: RwLock::new(None),
             speed_zones: RwLock::default(),
             navigator: Mutex::new(None),
@@ -589,6 +598,23 @@ impl Shared {
     pub fn motion_of(&self, owner: u64) -> Option<Moving> {
         let motion = self.motion.lock().expect("lock");
         motion.as_ref().filter(|m| m.owner == owner).cloned()
+    }
+
+    /// Sets the command of goal `owner`'s teleop motion (assisted_teleop.rs); false when the
+    /// robot is no longer driven by it.
+    pub fn set_teleop(&self, owner: u64, twist: Twist2) -> bool {
+        let mut motion = self.motion.lock().expect("lock");
+        match motion.as_mut() {
+            Some(Moving {
+                owner: o,
+                motion: Motion::Teleop(teleop),
+                ..
+            }) if *o == owner => {
+                teleop.twist = twist;
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Ends goal `owner`'s motion, if it is still being driven: the follower loop brakes the

@@ -1,0 +1,169 @@
+//! Nav2's behavior server's `assisted_teleop` (nav2_msgs/AssistedTeleop, Jazzy), as
+//! nav2_simple_commander's `assistedTeleop()` sends it: an operator drives the robot by hand
+//! (geometry_msgs/Twist on `behavior_server.cmd_vel_teleop`) and the node passes each command
+//! on through the follower loop, within the chassis' limits, scaled down as Nav2's
+//! AssistedTeleop scales it when the poses it leads to within `behavior_server.projection_time`
+//! near an obstacle or a keepout zone (chassis' `assisted`): the robot slows as it closes in and
+//! stops short. The goal ends when a std_msgs/Empty arrives on `preempt_teleop` (succeeded), its
+//! time allowance passes (TIMEOUT 731), odometry stops for a second (TF_ERROR 732), a client
+//! cancels, a newer goal of the action preempts it, or any other goal takes the robot.
+//!
+//! Unlike Nav2's, a command older than [`COMMAND_TIMEOUT`] counts as a stop: an operator's
+//! teleop that goes quiet (a dropped link, a keyboard teleop between key presses) does not
+//! leave the robot driving on its last command.
+
+use crate::action_server::{Feedback, GoalStop};
+use crate::behaviors::{
+    allowance, clear_from, interrupted, no_pose, BehaviorEnd, BehaviorFailure, STALE_LIMIT,
+};
+use crate::convert::{chassis_pose, duration_msg};
+use crate::drive::{taken, DriveEnd};
+use crate::outputs::Outputs;
+use crate::state::Shared;
+use chassis::behavior::{assisted, Motion, Teleop};
+use chassis::Twist2;
+use log::{info, warn};
+use patrol_msgs::nav2_msgs::{AssistedTeleopFeedback, AssistedTeleopGoal, BehaviorResult};
+use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+pub type Server = AsyncActionServer<AssistedTeleopGoal, BehaviorResult, AssistedTeleopFeedback>;
+
+/// An operator's command older than this is a stop.
+pub const COMMAND_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// AssistedTeleop's result code (Jazzy) for a failure: UNKNOWN 730, TIMEOUT 731, TF_ERROR 732.
+fn code(f: BehaviorFailure) -> u16 {
+    match f {
+        BehaviorFailure::Timeout => 731,
+        BehaviorFailure::TfError => 732,
+        _ => 730,
+    }
+}
+
+/// Serves `assisted_teleop` until the node stops (the door: action_server.rs).
+pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
+    crate::action_server::serve(s, o, "assisted_teleop", server, teleop).await
+}
+
+/// One assisted teleop: it takes the robot and drives it by the operator's commands, each
+/// scaled for what lies ahead, every control cycle until it ends.
+async fn teleop(
+    s: Arc<Shared>,
+    _o: Outputs,
+    goal: AssistedTeleopGoal,
+    stop: GoalStop,
+    feedback: Feedback<AssistedTeleopGoal, BehaviorResult, AssistedTeleopFeedback>,
+) -> (GoalEndStatus, BehaviorResult) {
+    let started = Instant::now();
+    let result = |error_code: u16, error_msg: String| BehaviorResult {
+        total_elapsed_time: duration_msg(started.elapsed()),
+        error_code,
+        error_msg,
+    };
+    let limit = allowance(&goal.time_allowance);
+    let preempts = s.teleop_preempts.load(Ordering::SeqCst);
+    let mine = s.take_robot();
+    s.stop_following(mine);
+    let end = if s.start_motion(mine, Motion::Teleop(Teleop::default())) {
+        info!("goal {mine}: assisted teleop");
+        drive(&s, mine, &stop, limit, preempts, &feedback, started).await
+    } else {
+        taken(&s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken)
+    };
+    s.stop_motion(mine);
+    match end {
+        BehaviorEnd::Succeeded => {
+            info!("assisted_teleop: ended on preempt_teleop");
+            (GoalEndStatus::Succeeded, result(0, String::new()))
+        }
+        BehaviorEnd::Stopped => (stop.end_status(), result(0, stop.reason().into())),
+        BehaviorEnd::Failed(f, why) => {
+            warn!("assisted_teleop: {why}");
+            (GoalEndStatus::Aborted, result(code(f), why))
+        }
+        BehaviorEnd::Taken(end) => {
+            let why = match end {
+                DriveEnd::NoPlan(f) => f.message,
+                _ => "preempted by a newer goal on /goal_pose or another action".into(),
+            };
+            (
+                GoalEndStatus::Aborted,
+                result(code(BehaviorFailure::Unknown), why),
+            )
+        }
+    }
+}
+
+/// The teleop's control cycles, at the follower's rate, until it ends.
+async fn drive(
+    s: &Shared,
+    mine: u64,
+    stop: &GoalStop,
+    limit: Option<Duration>,
+    preempts: u64,
+    feedback: &Feedback<AssistedTeleopGoal, BehaviorResult, AssistedTeleopFeedback>,
+    started: Instant,
+) -> BehaviorEnd {
+    let b = &s.params.behavior_server;
+    let period = Duration::from_secs_f64(1.0 / s.params.control_rate_hz);
+    let mut stale_since: Option<Instant> = None;
+    loop {
+        tokio::time::sleep(period).await;
+        if let Some(end) = interrupted(s, mine, stop) {
+            return end;
+        }
+        feedback
+            .send(AssistedTeleopFeedback {
+                current_teleop_duration: duration_msg(started.elapsed()),
+            })
+            .await;
+        if limit.is_some_and(|l| started.elapsed() > l) {
+            let secs = limit.unwrap_or_default().as_secs_f64();
+            let why = format!("past its time allowance ({secs:.1} s)");
+            return BehaviorEnd::Failed(BehaviorFailure::Timeout, why);
+        }
+        if s.teleop_preempts.load(Ordering::SeqCst) > preempts {
+            return BehaviorEnd::Succeeded;
+        }
+        // Without fresh odometry nothing can be checked: the robot is held stopped, and the
+        // goal fails once that has lasted STALE_LIMIT.
+        let clear = s
+            .fresh_odom()
+            .and_then(|pose| Some((pose, clear_from(s, pose)?)));
+        let twist = match clear {
+            Some((pose, clear)) => {
+                stale_since = None;
+                let command = latest_command(s);
+                assisted(
+                    command,
+                    &chassis_pose(pose),
+                    b.projection_time,
+                    b.simulation_time_step,
+                    |p| !clear(p),
+                )
+            }
+            None => {
+                if stale_since.get_or_insert_with(Instant::now).elapsed() > STALE_LIMIT {
+                    return BehaviorEnd::Failed(BehaviorFailure::TfError, no_pose());
+                }
+                Twist2::STOP
+            }
+        };
+        if !s.set_teleop(mine, twist) {
+            return taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
+        }
+    }
+}
+
+/// The operator's latest command, or a stop when it is older than [`COMMAND_TIMEOUT`] (or
+/// none has come).
+fn latest_command(s: &Shared) -> Twist2 {
+    s.teleop
+        .lock()
+        .expect("lock")
+        .filter(|(_, at)| at.elapsed() <= COMMAND_TIMEOUT)
+        .map_or(Twist2::STOP, |(twist, _)| twist)
+}
