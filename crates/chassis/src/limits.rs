@@ -84,6 +84,18 @@ impl TwistLimits {
         }
     }
 
+    /// `cmd` brought within the speed limits along the same curve: both speeds scaled by one
+    /// factor, where [`TwistLimits::apply`] clamps each alone (and a turn at a capped speed
+    /// would sweep a wider arc than the one asked for). What a check of the arc ahead checks.
+    pub fn keeping_curve(&self, cmd: Twist2) -> Twist2 {
+        let over = |v: f64, max: f64| if v.abs() > max { max / v.abs() } else { 1.0 };
+        let scale = over(cmd.linear, self.max_linear).min(over(cmd.angular, self.max_angular));
+        Twist2 {
+            linear: cmd.linear * scale,
+            angular: cmd.angular * scale,
+        }
+    }
+
     /// The command to apply: `cmd` clamped to the speed limits and, from `previous` over `dt`
     /// seconds, to the acceleration limits. A non-finite command (or `dt`) is a stop, still
     /// reached within the acceleration limits. The speed limits come first: a `previous` above
@@ -119,6 +131,30 @@ impl TwistLimits {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A command past the limits is scaled along its curve: its turn radius stays.
+    #[test]
+    fn a_command_past_the_limits_keeps_its_curve() {
+        let limits = TwistLimits::default();
+        let fast_turn = Twist2 {
+            linear: 0.5,
+            angular: 1.0,
+        };
+        let kept = limits.keeping_curve(fast_turn);
+        assert!(
+            (kept.angular - limits.max_angular).abs() < 1e-12,
+            "{kept:?}"
+        );
+        assert!(
+            (kept.linear / kept.angular - 0.5).abs() < 1e-12,
+            "the radius: {kept:?}"
+        );
+        let within = Twist2 {
+            linear: -0.3,
+            angular: 0.1,
+        };
+        assert_eq!(limits.keeping_curve(within), within);
+    }
     use proptest::prelude::*;
 
     fn any_f64() -> impl Strategy<Value = f64> {

@@ -371,9 +371,10 @@ impl NodeParams {
         if !within(b.simulate_ahead_time, 0.0, 10.0)
             || !within(b.projection_time, 0.1, 10.0)
             || !within(b.simulation_time_step, 0.01, b.projection_time)
+            || b.simulation_time_step >= b.projection_time
             || b.cmd_vel_teleop.is_empty()
         {
-            return Err("behavior_server: simulate_ahead_time within 0..=10 s, projection_time within 0.1..=10 s, simulation_time_step within 0.01 s..=projection_time, cmd_vel_teleop a topic".into());
+            return Err("behavior_server: simulate_ahead_time within 0..=10 s, projection_time within 0.1..=10 s, simulation_time_step at least 0.01 s and below projection_time, cmd_vel_teleop a topic".into());
         }
         for (key, topic) in [
             ("keepout_mask_topic", &self.keepout_mask_topic),
@@ -972,7 +973,7 @@ mod tests {
             ),
             (
                 "teleop_step.yaml",
-                "    behavior_server: {projection_time: 1.0, simulation_time_step: 2.0}\n",
+                "    behavior_server: {projection_time: 1.0, simulation_time_step: 1.0}\n",
                 "simulation_time_step",
             ),
         ] {

@@ -10,7 +10,10 @@
 //!
 //! Unlike Nav2's, a command older than [`COMMAND_TIMEOUT`] counts as a stop: an operator's
 //! teleop that goes quiet (a dropped link, a keyboard teleop between key presses) does not
-//! leave the robot driving on its last command.
+//! leave the robot driving on its last command; and the follower loop stops a teleop its task
+//! has not set for a few cycles. A command is checked as it will be driven: brought within the
+//! speed limits along its own curve first. A robot already in a keepout zone may be driven
+//! anywhere (to get it out), kept off obstacles only, as a spin or back-up started there.
 
 use crate::action_server::{Feedback, GoalStop};
 use crate::behaviors::{
@@ -115,11 +118,6 @@ async fn drive(
         if let Some(end) = interrupted(s, mine, stop) {
             return end;
         }
-        feedback
-            .send(AssistedTeleopFeedback {
-                current_teleop_duration: duration_msg(started.elapsed()),
-            })
-            .await;
         if limit.is_some_and(|l| started.elapsed() > l) {
             let secs = limit.unwrap_or_default().as_secs_f64();
             let why = format!("past its time allowance ({secs:.1} s)");
@@ -136,14 +134,13 @@ async fn drive(
         let twist = match clear {
             Some((pose, clear)) => {
                 stale_since = None;
-                let command = latest_command(s);
-                assisted(
-                    command,
-                    &chassis_pose(pose),
-                    b.projection_time,
-                    b.simulation_time_step,
-                    |p| !clear(p),
-                )
+                // Checked as it will be driven: within the speed limits, on the same curve.
+                let command = s
+                    .params
+                    .twist_limits
+                    .keeping_curve(latest_command(s, started));
+                let (horizon, step) = (b.projection_time, b.simulation_time_step);
+                assisted(command, &chassis_pose(pose), horizon, step, |p| !clear(p))
             }
             None => {
                 if stale_since.get_or_insert_with(Instant::now).elapsed() > STALE_LIMIT {
@@ -155,15 +152,21 @@ async fn drive(
         if !s.set_teleop(mine, twist) {
             return taken(s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken);
         }
+        feedback
+            .send(AssistedTeleopFeedback {
+                current_teleop_duration: duration_msg(started.elapsed()),
+            })
+            .await;
     }
 }
 
-/// The operator's latest command, or a stop when it is older than [`COMMAND_TIMEOUT`] (or
-/// none has come).
-fn latest_command(s: &Shared) -> Twist2 {
+/// The operator's latest command, if it came after `since` (the goal's start: one from before
+/// it is not this goal's, as Nav2 clears its command when a teleop ends) and is no older than
+/// [`COMMAND_TIMEOUT`]; else a stop.
+fn latest_command(s: &Shared, since: Instant) -> Twist2 {
     s.teleop
         .lock()
         .expect("lock")
-        .filter(|(_, at)| at.elapsed() <= COMMAND_TIMEOUT)
+        .filter(|(_, at)| *at >= since && at.elapsed() <= COMMAND_TIMEOUT)
         .map_or(Twist2::STOP, |(twist, _)| twist)
 }

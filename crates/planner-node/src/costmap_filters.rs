@@ -84,36 +84,14 @@ impl SpeedConversion {
     }
 }
 
-/// The speed zones in force: the last good speed mask and how it reads.
+/// The speed zones in force: the last good speed mask and how it reads, and how the next
+/// mask will read when the info moved to another topic (the old mask is not read in the new
+/// topic's units: the new scale goes into force with the new topic's first mask).
 #[derive(Default)]
 pub struct SpeedZones {
     pub conversion: Option<SpeedConversion>,
+    pub pending: Option<SpeedConversion>,
     pub mask: Option<Arc<GridMap>>,
-}
-
-/// What a mask is for: a keepout zone, or speed zones read with a conversion.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum MaskKind {
-    Keepout,
-    Speed(SpeedConversion),
-}
-
-impl MaskKind {
-    /// A keepout filter's masks, or a speed filter's read with `conversion` (which its info
-    /// always has: [`read_info`]).
-    fn of(filter: Filter, conversion: Option<SpeedConversion>) -> Self {
-        match (filter, conversion) {
-            (Filter::Speed, Some(c)) => MaskKind::Speed(c),
-            _ => MaskKind::Keepout,
-        }
-    }
-
-    fn filter(self) -> Filter {
-        match self {
-            MaskKind::Keepout => Filter::Keepout,
-            MaskKind::Speed(_) => Filter::Speed,
-        }
-    }
 }
 
 /// The masks of `filter` on `topic`: each one checked (a map's bounds and cell cap; in the
@@ -126,11 +104,11 @@ impl MaskKind {
 pub async fn receive_masks(
     s: Arc<Shared>,
     o: Outputs,
-    what: MaskKind,
+    filter: Filter,
     topic: String,
-    sub: Arc<Subscription<OccupancyGrid>>,
+    sub: Subscription<OccupancyGrid>,
 ) {
-    let kind = what.filter().name();
+    let kind = filter.name();
     loop {
         let msg = match sub.async_take().await {
             Ok((msg, _)) => msg,
@@ -154,13 +132,14 @@ pub async fn receive_masks(
             Ok(Ok(mask)) => {
                 let info = *mask.info();
                 let mask = Some(Arc::new(mask));
-                match what {
-                    MaskKind::Keepout => *s.keepout.write().expect("lock") = mask,
-                    // The mask and how it reads go into force together.
-                    MaskKind::Speed(conversion) => {
-                        *s.speed_zones.write().expect("lock") = SpeedZones {
-                            conversion: Some(conversion),
-                            mask,
+                match filter {
+                    Filter::Keepout => *s.keepout.write().expect("lock") = mask,
+                    Filter::Speed => {
+                        let mut zones = s.speed_zones.write().expect("lock");
+                        zones.mask = mask;
+                        // A new topic's first mask brings its info's scale with it.
+                        if let Some(conversion) = zones.pending.take() {
+                            zones.conversion = Some(conversion);
                         }
                     }
                 }
@@ -168,7 +147,7 @@ pub async fn receive_masks(
                     "{kind} mask from {topic}: {} x {} cells of {:.3} m",
                     info.width, info.height, info.resolution
                 );
-                if what == MaskKind::Keepout {
+                if filter == Filter::Keepout {
                     s.settings_changed.notify_one();
                 }
             }
@@ -195,10 +174,11 @@ const MAX_MASK_READERS: usize = 64;
 /// `filter_info_topic`: each good one (of this filter's kind, naming a valid topic) subscribes
 /// the node to its mask topic, latched, in place of the previous one, and its masks are taken
 /// by [`receive_masks`]; the last good mask stays in force until the new topic's first. A
-/// speed filter's info says how its mask reads: at once for the mask in force when the topic
-/// is the same (the same mask server, rescaled), else with the new topic's first mask. An info
-/// refused (another filter's, no topic, past [`MAX_MASK_READERS`]) is reported on
-/// `/diagnostics` and the node stays on the mask topic it had.
+/// speed filter's info says how its mask reads ([`SpeedZones`]): at once for the mask in force
+/// when the topic is the same (the same mask server, rescaled: its reader goes on), else with
+/// the new topic's first mask. An info refused (another filter's, no topic, past
+/// [`MAX_MASK_READERS`]) is reported on `/diagnostics` and the node stays on the mask topic it
+/// had.
 pub async fn receive_filter_info(
     s: Arc<Shared>,
     o: Outputs,
@@ -211,8 +191,8 @@ pub async fn receive_filter_info(
     let kind = filter.name();
     // The current mask topic's reader and what it does with each mask; none until a good info.
     let mut masks: Pin<Box<dyn Future<Output = ()> + Send>> = Box::pin(std::future::pending());
-    // The info in force, the topic it names (resolved) and that topic's reader.
-    let mut in_force: Option<(CostmapFilterInfo, String, Arc<Subscription<OccupancyGrid>>)> = None;
+    // The info in force and the topic it names (resolved).
+    let mut in_force: Option<(CostmapFilterInfo, String)> = None;
     let mut readers_made = 0;
     loop {
         let msg = tokio::select! {
@@ -229,7 +209,7 @@ pub async fn receive_filter_info(
         // The same info again (an info server restarted, a flood of them): nothing to do.
         if in_force
             .as_ref()
-            .is_some_and(|(old, ..)| same_filter(old, &info))
+            .is_some_and(|(old, _)| same_filter(old, &info))
         {
             debug!("{info_topic}: the info in force again");
             continue;
@@ -247,41 +227,6 @@ pub async fn receive_filter_info(
                 continue;
             }
         };
-        let topic = name.to_string();
-        let same_topic = in_force.as_ref().filter(|(_, old, _)| *old == topic);
-        let reader = match same_topic {
-            // The same topic, rescaled: the reader it has, and the new scale on the mask in force.
-            Some((.., reader)) => {
-                if conversion.is_some() {
-                    s.speed_zones.write().expect("lock").conversion = conversion;
-                }
-                reader.clone()
-            }
-            None if readers_made >= MAX_MASK_READERS => {
-                let why = format!(
-                    "the mask topic has changed {MAX_MASK_READERS} times, the most one node follows: restart the node"
-                );
-                refuse_info(&s, &o, kind, &info_topic, why).await;
-                continue;
-            }
-            None => {
-                // Creating a reader is a blocking DDS call (and a discovery announcement).
-                let (node, made) = (node.clone(), topic.clone());
-                let reader = tokio::task::spawn_blocking(move || subscribe(&node, &name, &made))
-                    .await
-                    .unwrap_or_else(|e| Err(format!("the subscribing task failed: {e}")));
-                match reader {
-                    Ok(reader) => {
-                        readers_made += 1;
-                        Arc::new(reader)
-                    }
-                    Err(why) => {
-                        refuse_info(&s, &o, kind, &info_topic, why).await;
-                        continue;
-                    }
-                }
-            }
-        };
         if filter == Filter::Keepout && (info.base, info.multiplier) != (0.0, 1.0) {
             // As Nav2's KeepoutFilter: it says so and reads the mask as occupancy anyway.
             warn!(
@@ -289,15 +234,55 @@ pub async fn receive_filter_info(
                 info.base, info.multiplier
             );
         }
+        let topic = name.to_string();
+        if in_force.as_ref().is_some_and(|(_, old)| *old == topic) {
+            // The same topic, rescaled: its reader goes on (a mask it is taking in is not
+            // lost), and the new scale applies to the mask in force at once (or, while the
+            // topic's first mask is awaited, to that one).
+            if conversion.is_some() {
+                let mut zones = s.speed_zones.write().expect("lock");
+                if zones.pending.is_some() {
+                    zones.pending = conversion;
+                } else {
+                    zones.conversion = conversion;
+                }
+            }
+            info!("{info_topic}: the {kind} mask on {topic} read anew");
+            in_force = Some((info, topic));
+            continue;
+        }
+        if readers_made >= MAX_MASK_READERS {
+            let why = format!(
+                "the mask topic has changed {MAX_MASK_READERS} times, the most one node follows: restart the node"
+            );
+            refuse_info(&s, &o, kind, &info_topic, why).await;
+            continue;
+        }
+        // Creating a reader is a blocking DDS call (and a discovery announcement).
+        let (node, made) = (node.clone(), topic.clone());
+        let reader = tokio::task::spawn_blocking(move || subscribe(&node, &name, &made))
+            .await
+            .unwrap_or_else(|e| Err(format!("the subscribing task failed: {e}")));
+        let reader = match reader {
+            Ok(reader) => reader,
+            Err(why) => {
+                refuse_info(&s, &o, kind, &info_topic, why).await;
+                continue;
+            }
+        };
+        readers_made += 1;
+        if conversion.is_some() {
+            s.speed_zones.write().expect("lock").pending = conversion;
+        }
         info!("{info_topic}: {kind} masks from {topic}");
         masks = Box::pin(receive_masks(
             s.clone(),
             o.clone(),
-            MaskKind::of(filter, conversion),
+            filter,
             topic.clone(),
-            reader.clone(),
+            reader,
         ));
-        in_force = Some((info, topic, reader));
+        in_force = Some((info, topic));
     }
 }
 

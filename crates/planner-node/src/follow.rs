@@ -7,6 +7,7 @@ use crate::convert::chassis_pose;
 use crate::drive::{hand_topic_goal_to_recoveries, DriveEnd, StallWatch};
 use crate::outputs::Outputs;
 use crate::state::Shared;
+use chassis::behavior::Motion;
 use chassis::follower::Status as FollowStatus;
 use chassis::Twist2;
 use log::{info, warn};
@@ -117,9 +118,50 @@ fn motion_command(s: &Shared, pose: Option<planner_core::geometry::Pose2>) -> Op
     let Some(p) = pose.and(*s.odom_local.read().expect("lock")) else {
         return Some(Twist2::STOP);
     };
+    // A teleop is set each control cycle by its goal's task (assisted_teleop.rs), each command
+    // checked for what lies ahead; one not set for four cycles (a stalled task) is not driven on.
+    let period = 1.0 / s.params.control_rate_hz;
+    if matches!(moving.motion, Motion::Teleop(_))
+        && moving.set_at.elapsed().as_secs_f64() > 4.0 * period
+    {
+        return Some(Twist2::STOP);
+    }
     let (cmd, status) = moving
         .motion
         .command(&chassis_pose(p), &s.params.twist_limits);
     moving.status = status;
     Some(cmd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use chassis::behavior::Teleop;
+    use planner_core::config::PlannerConfig;
+    use planner_core::geometry::Pose2;
+    use planner_io::parameters::NodeParams;
+
+    /// A teleop is driven on as its task last set it, and stopped once the task has not set it
+    /// for four control cycles (a stalled task must not leave the robot driving unchecked).
+    #[test]
+    fn a_teleop_its_task_stopped_setting_is_stopped() {
+        let s = Shared::new(NodeParams::default(), PlannerConfig::default());
+        let pose = Pose2::new(1.0, 1.0, 0.0);
+        *s.odom_local.write().unwrap() = Some(pose);
+        let mine = s.take_robot();
+        let ahead = Twist2 {
+            linear: 0.3,
+            angular: 0.1,
+        };
+        assert!(s.start_motion(mine, Motion::Teleop(Teleop::default())));
+        assert!(s.set_teleop(mine, ahead));
+        assert_eq!(motion_command(&s, Some(pose)), Some(ahead));
+        let four_cycles = Duration::from_secs_f64(4.0 / s.params.control_rate_hz);
+        std::thread::sleep(four_cycles + Duration::from_millis(20));
+        assert_eq!(motion_command(&s, Some(pose)), Some(Twist2::STOP));
+        assert!(s.set_teleop(mine, ahead), "set again, driven again");
+        assert_eq!(motion_command(&s, Some(pose)), Some(ahead));
+        // Another goal's set does not reach it.
+        assert!(!s.set_teleop(mine + 1, Twist2::STOP));
+    }
 }

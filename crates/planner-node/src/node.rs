@@ -31,7 +31,7 @@
 //! `/diagnostics` status with the reason.
 
 use crate::actions;
-use crate::costmap_filters::{self, Filter, MaskKind};
+use crate::costmap_filters::{self, Filter};
 use crate::follow;
 use crate::inputs;
 use crate::lifecycle_services;
@@ -749,9 +749,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         tasks.spawn(costmap_filters::receive_masks(
             shared.clone(),
             out.clone(),
-            MaskKind::Keepout,
+            Filter::Keepout,
             params.keepout_mask_topic.clone(),
-            Arc::new(sub),
+            sub,
         ));
     }
     tasks.spawn(inputs::remake_grid_on_change(

@@ -237,6 +237,9 @@ pub struct Moving {
     pub motion: Motion,
     /// What the motion said at the last command.
     pub status: MotionStatus,
+    /// When its goal last set it: a teleop not set for a while is stopped by the follower
+    /// loop, whatever became of the task that sets it.
+    pub set_at: Instant,
 }
 
 /// A navigation: the navigate action it counts as, and its goal.
@@ -590,6 +593,7 @@ impl Shared {
             owner,
             motion,
             status: MotionStatus::Running,
+            set_at: Instant::now(),
         });
         true
     }
@@ -608,9 +612,11 @@ impl Shared {
             Some(Moving {
                 owner: o,
                 motion: Motion::Teleop(teleop),
+                set_at,
                 ..
             }) if *o == owner => {
                 teleop.twist = twist;
+                *set_at = Instant::now();
                 true
             }
             _ => false,
