@@ -17,15 +17,16 @@
 
 use crate::action_server::{Feedback, GoalStop};
 use crate::behaviors::{
-    allowance, clear_from, interrupted, no_pose, BehaviorEnd, BehaviorFailure, STALE_LIMIT,
+    allowance, clear_from, goal_end, interrupted, no_pose, BehaviorEnd, BehaviorFailure,
+    STALE_LIMIT,
 };
 use crate::convert::{chassis_pose, duration_msg};
-use crate::drive::{taken, DriveEnd};
+use crate::drive::taken;
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use chassis::behavior::{assisted, Motion, Teleop};
 use chassis::Twist2;
-use log::{info, warn};
+use log::info;
 use patrol_msgs::nav2_msgs::{AssistedTeleopFeedback, AssistedTeleopGoal, BehaviorResult};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
 use std::sync::atomic::Ordering;
@@ -61,11 +62,6 @@ async fn teleop(
     feedback: Feedback<AssistedTeleopGoal, BehaviorResult, AssistedTeleopFeedback>,
 ) -> (GoalEndStatus, BehaviorResult) {
     let started = Instant::now();
-    let result = |error_code: u16, error_msg: String| BehaviorResult {
-        total_elapsed_time: duration_msg(started.elapsed()),
-        error_code,
-        error_msg,
-    };
     let limit = allowance(&goal.time_allowance);
     let preempts = s.teleop_preempts.load(Ordering::SeqCst);
     let mine = s.take_robot();
@@ -77,27 +73,10 @@ async fn teleop(
         taken(&s, mine).map_or(BehaviorEnd::Stopped, BehaviorEnd::Taken)
     };
     s.stop_motion(mine);
-    match end {
-        BehaviorEnd::Succeeded => {
-            info!("assisted_teleop: ended on preempt_teleop");
-            (GoalEndStatus::Succeeded, result(0, String::new()))
-        }
-        BehaviorEnd::Stopped => (stop.end_status(), result(0, stop.reason().into())),
-        BehaviorEnd::Failed(f, why) => {
-            warn!("assisted_teleop: {why}");
-            (GoalEndStatus::Aborted, result(code(f), why))
-        }
-        BehaviorEnd::Taken(end) => {
-            let why = match end {
-                DriveEnd::NoPlan(f) => f.message,
-                _ => "preempted by a newer goal on /goal_pose or another action".into(),
-            };
-            (
-                GoalEndStatus::Aborted,
-                result(code(BehaviorFailure::Unknown), why),
-            )
-        }
+    if let BehaviorEnd::Succeeded = end {
+        info!("assisted_teleop: ended on preempt_teleop");
     }
+    goal_end("assisted_teleop", end, &stop, started, code)
 }
 
 /// The teleop's control cycles, at the follower's rate, until it ends.

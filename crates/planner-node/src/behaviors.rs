@@ -486,20 +486,12 @@ async fn behave<G: BehaviorGoal>(
     feedback: Feedback<G, BehaviorResult, G::Feedback>,
 ) -> (GoalEndStatus, BehaviorResult) {
     let started = Instant::now();
-    let result = |error_code: u16, error_msg: String| BehaviorResult {
-        total_elapsed_time: duration_msg(started.elapsed()),
-        error_code,
-        error_msg,
-    };
     let behavior = goal.behavior();
     let moves = !matches!(behavior, Behavior::Wait(_));
     // Refused before the goal takes the robot: a bad goal does not stop a good one.
     if let Some(why) = goal.refusal().or_else(|| behavior.motion().err()) {
-        warn!("{}: {why}", G::NAME);
-        return (
-            GoalEndStatus::Aborted,
-            result(G::code(BehaviorFailure::InvalidInput), why),
-        );
+        let invalid = BehaviorEnd::Failed(BehaviorFailure::InvalidInput, why);
+        return goal_end(G::NAME, invalid, &stop, started, G::code);
     }
     let progress = |p: f64| {
         let feedback = feedback.clone();
@@ -521,15 +513,34 @@ async fn behave<G: BehaviorGoal>(
         };
         wait(behavior, interrupted, progress).await
     };
+    if let BehaviorEnd::Succeeded = end {
+        info!("{}: {behavior}: done", G::NAME);
+    }
+    goal_end(G::NAME, end, &stop, started, G::code)
+}
+
+/// How a behaviour's goal ends, as its action's result: succeeded; canceled or aborted on
+/// request (a cancel, a newer goal of the action); aborted with the action's `code` for a
+/// failure, and why; aborted with its code for UNKNOWN when the robot was taken (or the node
+/// deactivated). `total_elapsed_time` counts from `started`.
+pub fn goal_end(
+    name: &str,
+    end: BehaviorEnd,
+    stop: &GoalStop,
+    started: Instant,
+    code: impl Fn(BehaviorFailure) -> u16,
+) -> (GoalEndStatus, BehaviorResult) {
+    let result = |error_code: u16, error_msg: String| BehaviorResult {
+        total_elapsed_time: duration_msg(started.elapsed()),
+        error_code,
+        error_msg,
+    };
     match end {
-        BehaviorEnd::Succeeded => {
-            info!("{}: {behavior}: done", G::NAME);
-            (GoalEndStatus::Succeeded, result(0, String::new()))
-        }
+        BehaviorEnd::Succeeded => (GoalEndStatus::Succeeded, result(0, String::new())),
         BehaviorEnd::Stopped => (stop.end_status(), result(0, stop.reason().into())),
         BehaviorEnd::Failed(f, why) => {
-            warn!("{}: {why}", G::NAME);
-            (GoalEndStatus::Aborted, result(G::code(f), why))
+            warn!("{name}: {why}");
+            (GoalEndStatus::Aborted, result(code(f), why))
         }
         BehaviorEnd::Taken(end) => {
             let why = match end {
@@ -538,7 +549,7 @@ async fn behave<G: BehaviorGoal>(
             };
             (
                 GoalEndStatus::Aborted,
-                result(G::code(BehaviorFailure::Unknown), why),
+                result(code(BehaviorFailure::Unknown), why),
             )
         }
     }
