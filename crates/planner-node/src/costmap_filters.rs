@@ -407,11 +407,11 @@ async fn refuse_info(s: &Shared, o: &Outputs, kind: &str, info_topic: &str, why:
     refuse(s, o, message).await
 }
 
-/// Reports a refused mask or filter info on `/diagnostics` (the node goes on as it was).
+/// Reports a refused mask or filter info on `/diagnostics`, which logs it too (the node goes
+/// on as it was).
 async fn refuse(s: &Shared, o: &Outputs, message: String) {
     let planner = s.live.read().expect("lock").planner;
     let f = Failure::new(ResultCode::InvalidInput, message);
-    warn!("{}", f.message);
     o.diagnose(s, &Outcome::failed(planner, 0, f)).await;
 }
 

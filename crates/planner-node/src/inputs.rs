@@ -19,6 +19,7 @@ use patrol_msgs::rosgraph_msgs::Clock;
 use patrol_msgs::std_msgs::Empty;
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{Gid, Subscription};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Instant;
 use tokio::sync::watch;
@@ -296,16 +297,22 @@ pub async fn receive_start_poses(
     }
 }
 
-/// The inputs a patrol waits for at its waypoints (`input_at_waypoint`, Nav2's
-/// InputAtWaypoint): each std_msgs/Empty is counted.
-pub async fn receive_waypoint_inputs(s: Arc<Shared>, sub: Subscription<Empty>) {
+/// Signals counted as they come (std_msgs/Empty on `topic`): `counter(s)` goes up by one for
+/// each, and whoever waits for one compares it with the count when it began waiting. So a
+/// patrol waits at a waypoint for the inspection's word (`input_at_waypoint`, Nav2's
+/// InputAtWaypoint), and an assisted teleop for the operator's end (`preempt_teleop`).
+pub async fn count_signals(
+    s: Arc<Shared>,
+    topic: String,
+    sub: Subscription<Empty>,
+    counter: fn(&Shared) -> &AtomicU64,
+) {
     loop {
         match sub.async_take().await {
             Ok(_) => {
-                s.waypoint_inputs
-                    .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                counter(&s).fetch_add(1, Ordering::SeqCst);
             }
-            Err(e) => warn!("{}: {e:?}", s.params.input_at_waypoint.input_topic),
+            Err(e) => warn!("{topic}: {e:?}"),
         }
     }
 }
@@ -321,19 +328,6 @@ where
         match sub.async_take().await {
             Ok((msg, _)) => *s.teleop.lock().expect("lock") = Some((twist(&msg), Instant::now())),
             Err(e) => warn!("{}: {e:?}", s.params.behavior_server.cmd_vel_teleop),
-        }
-    }
-}
-
-/// `preempt_teleop` (std_msgs/Empty): the operator is done; each one is counted.
-pub async fn receive_teleop_preempts(s: Arc<Shared>, sub: Subscription<Empty>) {
-    loop {
-        match sub.async_take().await {
-            Ok(_) => {
-                s.teleop_preempts
-                    .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-            }
-            Err(e) => warn!("preempt_teleop: {e:?}"),
         }
     }
 }
@@ -439,8 +433,8 @@ pub async fn receive_goals(
                     replaces: None,
                 }));
             }
+            // Logged with the rest of the answers, by diagnose.
             Err(f) => {
-                warn!("{}", f.message);
                 let planner = s.live.read().expect("lock").planner;
                 o.diagnose(&s, &Outcome::failed(planner, 0, f)).await
             }

@@ -232,7 +232,12 @@ fn serve_standalone(
         &volatile,
     )?;
     let preempt = node.create_subscription::<Empty>(&t, Some(volatile))?;
-    tasks.spawn(inputs::receive_teleop_preempts(shared.clone(), preempt));
+    tasks.spawn(inputs::count_signals(
+        shared.clone(),
+        "preempt_teleop".into(),
+        preempt,
+        |s| &s.teleop_preempts,
+    ));
     tasks.spawn(crate::assisted_teleop::serve(
         shared.clone(),
         out.clone(),
@@ -743,7 +748,12 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         tasks.spawn(inputs::receive_speed_limits(shared.clone(), sub));
     }
     if let Some(sub) = waypoint_input_sub {
-        tasks.spawn(inputs::receive_waypoint_inputs(shared.clone(), sub));
+        tasks.spawn(inputs::count_signals(
+            shared.clone(),
+            params.input_at_waypoint.input_topic.clone(),
+            sub,
+            |s| &s.waypoint_inputs,
+        ));
     }
     if let Some(sub) = keepout_sub {
         tasks.spawn(costmap_filters::receive_masks(
