@@ -389,7 +389,10 @@ def test_assisted_teleop_keeps_the_operators_robot_off_the_pillar(rig):
     assert 1.4 < robot.y < 2.0 - 0.25 + 0.05, f"slowed and stopped short of the pillar: y {robot.y:.3f}"
     assert abs(robot.cmds[-1].linear.x) < 0.05, robot.cmds[-1]
     # The operator's 0.5 m/s while the pillar is over a second away, less and less nearer.
-    assert max(v for y, v in seen if y < 1.0) > 0.45, "passed on while far"
+    # Passed on unscaled until the 1 s projection at 0.5 m/s reaches the stop line (1.75 m), at
+    # y 1.25 m; from rest at 0.8 m the robot needs 0.25 m to reach 0.5 m/s at 0.5 m/s^2, so a
+    # window ending at 1.0 m (as first written) caught it still accelerating (0.425 seen once).
+    assert max(v for y, v in seen if y < 1.25) > 0.45, "passed on while far"
     # Seen: 0.5 m/s up to y 1.3 m, 0.35 at 1.5, 0.2 at 1.6, 0.1 at 1.7, stopped at 1.77 (the
     # check is by cells of 0.1 m, so the stop is within half a cell of the radius).
     assert max(v for y, v in seen if y > 1.55) < 0.4, "slowing near the pillar"
