@@ -7,7 +7,9 @@
 //! start. Nav2 draws with Python's `random.seed(33)`; these draws come from the planner's seeded
 //! ChaCha RNG, so the same seed gives the same queries on every machine, but not Nav2's own
 //! pairs. Whether a pair is connected is not checked: a benchmark reports a pair with no path as
-//! such (A* answers NO_VALID_PATH), it never drops it.
+//! such (A* answers NO_VALID_PATH), it never drops it. On a map that is mostly unknown (a SLAM
+//! map on a fixed canvas) the draws over the whole map may run out before enough pairs are
+//! found; the rest are then drawn among the usable cells themselves.
 //!
 //! Random routes draw their points from the free cells connected to their start (8-neighbour
 //! moves), so that every point is reachable and an ordering's saving is measured on the whole
@@ -96,6 +98,28 @@ pub fn random_queries(
         let (pa, pb) = (info.cell_to_world(a), info.cell_to_world(b));
         if (pa - pb).norm() > s.min_distance_m {
             pairs.push((pa, pb));
+        }
+    }
+    if pairs.len() < n {
+        // A SLAM map on a fixed canvas can be 97 % unknown (gmapping's 4000 x 4000 default, a
+        // small mapped area in its middle), where drawing over the whole map finds too few
+        // pairs. The rest are drawn among the usable cells themselves: the same uniform
+        // distribution, without the wasted draws. Drawing over the map first keeps every
+        // map's queries for a seed as they were before this fallback existed.
+        let cells: Vec<Cell> = (by..h - by)
+            .flat_map(|y| (bx..w - bx).map(move |x| Cell::new(x, y)))
+            .filter(|&c| usable(c))
+            .collect();
+        let mut more = 0;
+        while !cells.is_empty() && pairs.len() < n && more < budget {
+            more += 1;
+            attempts += 1;
+            let a = cells[rng.random_range(0..cells.len())];
+            let b = cells[rng.random_range(0..cells.len())];
+            let (pa, pb) = (info.cell_to_world(a), info.cell_to_world(b));
+            if (pa - pb).norm() > s.min_distance_m {
+                pairs.push((pa, pb));
+            }
         }
     }
     if pairs.len() < n {
@@ -235,6 +259,37 @@ mod tests {
         assert!(pairs.iter().any(|(a, b)| (a.y < 20.0) != (b.y < 20.0)));
         assert_eq!(random_queries(&grid, 50, &mut rng(33), &s).unwrap(), pairs);
         assert_ne!(random_queries(&grid, 50, &mut rng(34), &s).unwrap(), pairs);
+    }
+
+    #[test]
+    fn a_map_that_is_mostly_unknown_still_gives_its_pairs() {
+        // 400 x 400 cells of 1 m, blocked (as unknown is) but for a 12 x 12 room in the middle (0.09 % of the
+        // map: 10 000 draws per pair over the whole map find one pair in about 12).
+        let rows: Vec<String> = (0..400)
+            .map(|y| {
+                (0..400)
+                    .map(|x| {
+                        if (194..206).contains(&x) && (194..206).contains(&y) {
+                            '.'
+                        } else {
+                            '#'
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let refs: Vec<&str> = rows.iter().map(|r| r.as_str()).collect();
+        let grid = grid_from_rows(&refs);
+        let s = QuerySampling::default();
+        let pairs = random_queries(&grid, 30, &mut rng(33), &s).unwrap();
+        assert_eq!(pairs.len(), 30);
+        for &(a, b) in &pairs {
+            assert!((a - b).norm() > 3.0);
+            for p in [a, b] {
+                assert!(grid.is_free(grid.info().world_to_cell(p).unwrap()), "{p:?}");
+            }
+        }
+        assert_eq!(random_queries(&grid, 30, &mut rng(33), &s).unwrap(), pairs);
     }
 
     #[test]
