@@ -299,43 +299,60 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
-        /// On random grids: a sweep reaches exactly what A* reaches, with A*'s optimal walk length;
-        /// every leg runs from point to point, is collision-free and never longer than the A*
-        /// staircase; the reverse leg is the same path.
+        /// On random grids, five points: every sweep (the later ones reuse the first's buffers)
+        /// settles each target at A*'s optimal walk length; the matrix holds exactly the points
+        /// A* reaches from the start; every leg between two of them, not only the start's, runs
+        /// from point to point, is collision-free and is never longer than the A* staircase.
         #[test]
         fn sweeps_agree_with_astar(seed in any::<u64>(), density in 0.0f64..0.35) {
             let (grid, a, b) = random_grid(seed, 18, 14, density);
             let (_, c, d) = random_grid(seed ^ 0x5eed, 18, 14, 0.0);
-            let points = [a, b, c, d].map(|c| c.center());
+            let (_, e, _) = random_grid(seed ^ 0xface, 18, 14, 0.0);
+            let points = [a, b, c, d, e].map(|c| c.center());
+            let cell = |k: usize| Cell::containing(points[k]);
             let mut r = rng(seed);
-            match LegMatrix::build(&grid, &points) {
-                Err(reason) => prop_assert!(reason != SkipReason::CutOff),
-                Ok(m) => {
-                    prop_assert_eq!(m.nodes[0], 0);
-                    for (x, &k) in m.nodes.iter().enumerate() {
-                        let ctx = PlanContext::never_interrupted(&mut r);
-                        let cell = |k: usize| Cell::containing(points[k]);
-                        let astar = astar_cells(&grid, cell(0), cell(k), &ctx);
-                        let length = astar.as_ref().map(|(c, _)| cell_path_length(c));
-                        prop_assert!(length.is_ok(), "node {} is in the matrix but A* finds no path", k);
-                        if x > 0 {
-                            let p = m.path(0, x);
-                            prop_assert_eq!(p[0], points[0]);
-                            prop_assert_eq!(*p.last().unwrap(), points[k]);
-                            prop_assert!(path_is_free(&grid, &p));
-                            prop_assert!(m.shape(0, x).unwrap().length <= length.unwrap() + 1e-9);
-                            let mut back = m.path(x, 0);
-                            back.reverse();
-                            prop_assert_eq!(back, p);
-                        }
-                    }
-                    for &(k, reason) in &m.unreachable {
-                        if reason == SkipReason::CutOff {
-                            let ctx = PlanContext::never_interrupted(&mut r);
-                            let cell = |k: usize| Cell::containing(points[k]);
-                            prop_assert!(astar_cells(&grid, cell(0), cell(k), &ctx).is_err());
-                        }
-                    }
+            let mut astar = |from: usize, to: usize| {
+                let ctx = PlanContext::never_interrupted(&mut r);
+                astar_cells(&grid, cell(from), cell(to), &ctx)
+                    .ok()
+                    .map(|(c, _)| cell_path_length(&c))
+            };
+            // `random_grid` frees its start cell, so the start is usable.
+            let m = LegMatrix::build(&grid, &points).expect("the start is free");
+            prop_assert_eq!(m.nodes[0], 0);
+            for k in 1..points.len() {
+                let in_matrix = m.nodes.contains(&k);
+                let reason = m.unreachable.iter().find(|u| u.0 == k).map(|u| u.1);
+                if grid.is_free(cell(k)) {
+                    prop_assert_eq!(in_matrix, astar(0, k).is_some(), "node {}", k);
+                    prop_assert!(in_matrix || reason == Some(SkipReason::CutOff));
+                } else {
+                    prop_assert_eq!(reason, Some(SkipReason::Occupied));
+                }
+            }
+            for x in 0..m.len() {
+                for y in x + 1..m.len() {
+                    let (kx, ky) = (m.nodes[x], m.nodes[y]);
+                    let p = m.path(x, y);
+                    prop_assert_eq!(p[0], points[kx]);
+                    prop_assert_eq!(*p.last().unwrap(), points[ky]);
+                    prop_assert!(path_is_free(&grid, &p), "leg {} -> {}", kx, ky);
+                    let staircase = astar(kx, ky).expect("both reach the start");
+                    prop_assert!(m.shape(x, y).unwrap().length <= staircase + 1e-9);
+                }
+            }
+            // The walks themselves: one sweeper for every source in turn, as `build` uses it.
+            let cells: Vec<Cell> = m.nodes.iter().map(|&k| cell(k)).collect();
+            let mut sweeper = Sweeper::new(&grid);
+            for (x, &from) in cells.iter().enumerate() {
+                let reached = sweeper.sweep(from, cells[x + 1..].iter().copied());
+                prop_assert!(reached.iter().all(|&ok| ok));
+                for (y, &to) in cells.iter().enumerate().skip(x + 1) {
+                    let walk = sweeper.walk_to(to);
+                    prop_assert_eq!((walk[0], *walk.last().unwrap()), (from, to));
+                    let best = astar(m.nodes[x], m.nodes[y]).unwrap();
+                    prop_assert!((cell_path_length(&walk) - best).abs() < 1e-9);
+                    prop_assert!((sweeper.g[sweeper.padded(to)] - best).abs() < 1e-9);
                 }
             }
         }
