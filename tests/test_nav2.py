@@ -8,7 +8,7 @@ test_node.py published on /map (collisions checked with this suite's own code)."
 import math
 
 import rclpy
-from rclpy.action import ActionClient, get_action_names_and_types
+from rclpy.action import ActionClient, get_action_server_names_and_types_by_node
 
 from nav2_msgs.action import ComputePathThroughPoses, ComputePathToPose
 from nav2_msgs.srv import IsPathValid
@@ -151,12 +151,14 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
 
         # Only planner_server's actions: the ones that drive are the stack's own servers'.
         # (Listed once the planner actions are: the node creates them all before it spins.)
-        served = {name for name, _ in get_action_names_and_types(ros.node)}
+        # Asked of the node itself: the whole graph's names would count this test's own
+        # clients of the planner actions and of is_path_valid too.
+        served = {name for name, _ in get_action_server_names_and_types_by_node(ros.node, "patrol_planner", "/")}
         assert {"/compute_path_to_pose", "/compute_path_through_poses"} <= served, served
         driving = {"/navigate_to_pose", "/navigate_through_poses", "/follow_waypoints", "/spin", "/backup",
-                   "/drive_on_heading", "/wait", "/assisted_teleop"}
+                   "/drive_on_heading", "/wait", "/assisted_teleop", "/follow_path"}
         assert not served & driving, served
-        services = {name for name, _ in ros.node.get_service_names_and_types()}
+        services = {name for name, _ in ros.node.get_service_names_and_types_by_node("patrol_planner", "/")}
         assert "/is_path_valid" in services and "/global_costmap/get_costmap" not in services, services
 
         # Two goals that end before their clients ask for the results, asked for in the other

@@ -13,7 +13,13 @@ feedback's number_of_poses_remaining counting the poses down; a route back to wh
 stands is driven round, not taken as done; a navigate_to_pose goal while a route is driven
 is refused (aborted, error code 0) and the route goes on, as bt_navigator's navigators share the
 robot, and so is a /goal_pose (BUSY on /diagnostics), which bt_navigator turns into one; no poses is NO_VIAPOINTS_GIVEN (309), more than 500
-UNKNOWN (300), a pose in an unknown frame TF_ERROR (302) naming the pose."""
+UNKNOWN (300), a pose in an unknown frame TF_ERROR (302) naming the pose.
+
+FollowPath, as nav2_simple_commander's followPath sends a path getPath returned (`follow_path`,
+controller_server's action): the planner's path driven to its end with controller_server's
+feedback, a sparse hand-made path densified and driven; refused before the car moves, with
+FollowPath's codes: an unknown controller id (101), a frame the node cannot place (102), a path
+into a cabinet or starting metres from the car (103)."""
 import math
 
 from action_msgs.msg import GoalStatus
@@ -21,7 +27,7 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry, Path
 from rclpy.action import ActionClient
 
-from nav2_msgs.action import NavigateThroughPoses, NavigateToPose
+from nav2_msgs.action import ComputePathToPose, FollowPath, NavigateThroughPoses, NavigateToPose
 
 from conftest import ROOT, driving_rig, stamped
 
@@ -207,5 +213,80 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == 302, (r.status, r.result)
         assert r.result.error_msg.startswith("pose 1:"), r.result.error_msg
 
+        for c in cmds:
+            assert abs(c.linear.x) <= 0.6 + 1e-9 and abs(c.angular.z) <= 0.4 + 1e-9
+
+
+def test_follow_path_drives_a_given_path_as_controller_server_does(tmp_path):
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n"
+        f"    map_yaml: {MAP}\n    planner: any_angle\n"
+    )
+    with driving_rig(57, params, ROOT / "config" / "chassis.yaml", "follow_path") as ros:
+        odom, cmds = [], []
+        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
+        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+        follow = ActionClient(ros.node, FollowPath, "follow_path")
+        # An empty path is INVALID_PATH at once: the probe that the action answers.
+        ros.wait_action_answers(follow, FollowPath.Goal(), "the follow_path action")
+        planner = ActionClient(ros.node, ComputePathToPose, "compute_path_to_pose")
+        ros.wait_action_answers(planner, ComputePathToPose.Goal(goal=stamped(*NEAR, frame="nowhere")),
+                                "the compute_path_to_pose action")
+
+        def run(client, goal, feedback=None, timeout=60):
+            sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback is not None and feedback.append(f.feedback))
+            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the goal")
+            assert handle.accepted
+            result = handle.get_result_async()
+            ros.spin_until(result.done, timeout, "the goal's result")
+            return result.result()
+
+        def robot():
+            p = odom[-1].pose.pose.position
+            return p.x, p.y
+
+        def path_of(points, frame="map"):
+            return Path(header=stamped(0.0, 0.0, frame=frame).header,
+                        poses=[stamped(x, y, yaw, frame=frame) for x, y, yaw in points])
+
+        planned = run(planner, ComputePathToPose.Goal(goal=stamped(*NEAR)))
+        assert planned.status == GoalStatus.STATUS_SUCCEEDED, planned.result.error_msg
+        path = planned.result.path
+        assert len(path.poses) > 10
+
+        # Refused before the car moves, each with FollowPath's code.
+        x0, y0 = robot()
+        start = (x0, y0, 0.0)
+        refusals = [
+            (FollowPath.Goal(path=path, controller_id="RegulatedPurePursuit"), 101, "no controller"),
+            (FollowPath.Goal(path=path_of([start, NEAR], frame="nowhere")), 102, "nowhere"),
+            (FollowPath.Goal(path=path_of([start, CABINET])), 103, "obstacle"),
+            (FollowPath.Goal(path=Path(header=path.header, poses=[
+                q for q in path.poses if math.hypot(q.pose.position.x - x0, q.pose.position.y - y0) > 1.5])), 103, "from the robot"),
+        ]
+        for goal, code, words in refusals:
+            r = run(follow, goal, timeout=10)
+            assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == code, (code, r.status, r.result)
+            assert words in r.result.error_msg, r.result.error_msg
+        assert math.hypot(robot()[0] - x0, robot()[1] - y0) < 0.02, "a refused path moved the car"
+
+        # The planner's path, driven to its end: controller_server's feedback counts it down.
+        feedback = []
+        r = run(follow, FollowPath.Goal(path=path), feedback)
+        assert r.status == GoalStatus.STATUS_SUCCEEDED and r.result.error_code == 0, r.result
+        ros.spin_for(0.5)
+        assert math.hypot(robot()[0] - NEAR[0], robot()[1] - NEAR[1]) <= 0.15, robot()
+        assert feedback and feedback[0].distance_to_goal > 1.5 and feedback[-1].distance_to_goal < 0.3, \
+            [f.distance_to_goal for f in feedback]
+        assert max(f.speed for f in feedback) > 0.2
+        # A sparse path made by hand (its two ends 1.5 m apart): densified and driven along.
+        x1, y1 = robot()
+        r = run(follow, FollowPath.Goal(path=path_of([(x1, y1, 0.0), (3.5, 0.6, 0.0)])))
+        assert r.status == GoalStatus.STATUS_SUCCEEDED, r.result
+        ros.spin_for(0.5)
+        assert math.hypot(robot()[0] - 3.5, robot()[1] - 0.6) <= 0.15, robot()
+        assert len(cmds) > 20 and max(abs(c.linear.x) for c in cmds) > 0.3, len(cmds)
         for c in cmds:
             assert abs(c.linear.x) <= 0.6 + 1e-9 and abs(c.angular.z) <= 0.4 + 1e-9

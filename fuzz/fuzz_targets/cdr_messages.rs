@@ -17,9 +17,9 @@ use patrol_msgs::geometry_msgs::{
 use patrol_msgs::lifecycle_msgs::ChangeStateRequest;
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
-    BackUpGoal, ComputePathThroughPosesGoal, ComputePathToPoseGoal, DriveOnHeadingGoal,
-    FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest, LoadMapRequest,
-    CostmapFilterInfo, NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
+    BackUpGoal, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
+    DriveOnHeadingGoal, FollowPathGoal, FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest,
+    LoadMapRequest, NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetMapRequest, GetPlanRequest, OccupancyGrid, Odometry};
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -70,7 +70,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 25 {
+    match selector % 26 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -134,6 +134,11 @@ fuzz_target!(|data: &[u8]| {
         23 => {
             if let Some(info) = round_trip::<CostmapFilterInfo>(payload) {
                 assert!(info.filter_mask_topic.len() <= payload.len());
+            }
+        }
+        24 => {
+            if let Some(goal) = round_trip::<FollowPathGoal>(payload) {
+                assert!(goal.path.poses.len() <= payload.len());
             }
         }
         _ => drop(round_trip::<ChangeStateRequest>(payload)),

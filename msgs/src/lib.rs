@@ -593,6 +593,31 @@ pub mod nav2_msgs {
     pub struct AssistedTeleopFeedback {
         pub current_teleop_duration: Duration,
     }
+    /// nav2_msgs/action/FollowPath goal (controller_server's): the path to drive, and the ids of
+    /// the controller, goal checker and progress checker plugins to drive it with (empty: the
+    /// server's only one)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct FollowPathGoal {
+        pub path: Path,
+        pub controller_id: String,
+        pub goal_checker_id: String,
+        pub progress_checker_id: String,
+    }
+    /// nav2_msgs/action/FollowPath result: NONE 0, UNKNOWN 100, INVALID_CONTROLLER 101,
+    /// TF_ERROR 102, INVALID_PATH 103, PATIENCE_EXCEEDED 104, FAILED_TO_MAKE_PROGRESS 105,
+    /// NO_VALID_CONTROL 106, CONTROLLER_TIMED_OUT 107
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct FollowPathResult {
+        pub result: super::std_msgs::Empty,
+        pub error_code: u16,
+        pub error_msg: String,
+    }
+    /// nav2_msgs/action/FollowPath feedback
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct FollowPathFeedback {
+        pub distance_to_goal: f32,
+        pub speed: f32,
+    }
     /// nav2_msgs/action/Wait feedback
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
     pub struct WaitFeedback {
@@ -617,6 +642,9 @@ pub mod nav2_msgs {
         WaitFeedback,
         AssistedTeleopGoal,
         AssistedTeleopFeedback,
+        FollowPathGoal,
+        FollowPathResult,
+        FollowPathFeedback,
         NavigateToPoseGoal,
         NavigateToPoseResult,
         NavigateToPoseFeedback,

@@ -721,4 +721,34 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::ASSISTED_TELEOP_FEEDBACK,
     );
+    check(
+        "FollowPath goal",
+        FollowPathGoal {
+            path: Path {
+                header: header(),
+                poses: vec![stamped(1.0, 2.0), stamped(3.0, 4.0)],
+            },
+            controller_id: "FollowPath".into(),
+            goal_checker_id: "general_goal_checker".into(),
+            progress_checker_id: String::new(),
+        },
+        g::FOLLOW_PATH_GOAL,
+    );
+    check(
+        "FollowPath result",
+        FollowPathResult {
+            result: Empty::default(),
+            error_code: 103,
+            error_msg: "through an obstacle".into(),
+        },
+        g::FOLLOW_PATH_RESULT,
+    );
+    check(
+        "FollowPath feedback",
+        FollowPathFeedback {
+            distance_to_goal: 2.5,
+            speed: 0.375,
+        },
+        g::FOLLOW_PATH_FEEDBACK,
+    );
 }

@@ -14,7 +14,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from lifecycle_msgs.msg import State, Transition, TransitionDescription, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 # nav2_msgs has no wheel: tests/build_interfaces.sh builds it into the venv first.
-from nav2_msgs.action import (AssistedTeleop, BackUp, ComputePathThroughPoses, ComputePathToPose,
+from nav2_msgs.action import (AssistedTeleop, BackUp, ComputePathThroughPoses, ComputePathToPose, FollowPath,
                               DriveOnHeading, FollowWaypoints, NavigateThroughPoses, NavigateToPose,
                               Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
@@ -169,6 +169,12 @@ def messages():
     f = AssistedTeleop.Feedback()
     f.current_teleop_duration.sec, f.current_teleop_duration.nanosec = 12, 7
     out["ASSISTED_TELEOP_FEEDBACK"] = f
+    out["FOLLOW_PATH_GOAL"] = FollowPath.Goal(
+        path=Path(header=header(), poses=[pose_stamped(1.0, 2.0), pose_stamped(3.0, 4.0)]),
+        controller_id="FollowPath", goal_checker_id="general_goal_checker", progress_checker_id="")
+    out["FOLLOW_PATH_RESULT"] = FollowPath.Result(error_code=FollowPath.Result.INVALID_PATH,
+                                                  error_msg="through an obstacle")
+    out["FOLLOW_PATH_FEEDBACK"] = FollowPath.Feedback(distance_to_goal=2.5, speed=0.375)
     out["SPEED_LIMIT"] = SpeedLimit(header=header(), percentage=True, speed_limit=42.5)
     out["LOAD_MAP_REQUEST"] = LoadMap.Request(map_url="/maps/floor2.yaml")
     grid = OccupancyGrid(header=header())

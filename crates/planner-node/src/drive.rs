@@ -344,7 +344,7 @@ async fn drive_once<P, Fut>(
     goals: &[Pose2],
     mine: u64,
     stop: &GoalStop,
-    mut progress: P,
+    progress: P,
 ) -> DriveEnd
 where
     P: FnMut(Progress) -> Fut,
@@ -387,6 +387,24 @@ where
     ) {
         return taken(s, mine).unwrap_or(DriveEnd::Superseded);
     }
+    watch_followed(s, mine, stop, started, progress).await
+}
+
+/// Watches goal `mine`'s path, handed to the follower since `started`, until it ends: arrived,
+/// stopped on request, taken by a newer goal or a deactivation, no progress, or out of time
+/// (calling `progress` each tick). Shared by a drive's own plans and `follow_path`'s given
+/// path (follow_path.rs).
+pub(crate) async fn watch_followed<P, Fut>(
+    s: &Arc<Shared>,
+    mine: u64,
+    stop: &GoalStop,
+    started: Instant,
+    mut progress: P,
+) -> DriveEnd
+where
+    P: FnMut(Progress) -> Fut,
+    Fut: Future<Output = ()>,
+{
     // The plan being driven: the first, then each replan around a new map (inputs.rs), which
     // brings its own end (the goal, or the free cell it was moved to) and its own time limit.
     let mut driven = Plan::default();

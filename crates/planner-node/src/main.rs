@@ -13,6 +13,7 @@ mod convert;
 mod costmap_filters;
 mod drive;
 mod follow;
+mod follow_path;
 mod inputs;
 mod lifecycle;
 mod lifecycle_services;

@@ -55,12 +55,12 @@ use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     AssistedTeleopFeedback, AssistedTeleopGoal, BackUpFeedback, BackUpGoal, BehaviorResult,
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
-    DriveOnHeadingGoal, EmptyFeedback, FollowWaypointsFeedback, FollowWaypointsGoal,
-    FollowWaypointsResult, GetCostmapRequest, GetCostmapResponse, IsPathValidRequest,
-    IsPathValidResponse, LoadMapRequest, LoadMapResponse, NavigateThroughPosesFeedback,
-    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
-    NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback, SpinGoal, WaitFeedback,
-    WaitGoal,
+    DriveOnHeadingGoal, EmptyFeedback, FollowPathFeedback, FollowPathGoal, FollowPathResult,
+    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest,
+    GetCostmapResponse, IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
+    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
+    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback,
+    SpinGoal, WaitFeedback, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{
     GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
@@ -107,7 +107,8 @@ fn action_qos() -> ActionServerQosPolicies {
 /// actions that drive the robot, bt_navigator's `navigate_to_pose` and `navigate_through_poses`
 /// (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs) and behavior_server's
 /// `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs) and `assisted_teleop`
-/// (assisted_teleop.rs), and the global costmap's
+/// (assisted_teleop.rs), controller_server's `follow_path` (follow_path.rs), and the global
+/// costmap's
 /// `global_costmap/get_costmap` (actions.rs). A node standing in for planner_server in a whole
 /// Nav2 stack (`follow_plan: false`, as the README sets it up) serves none of them, so none of
 /// that stack's requests (a behaviour tree's Spin, a user's goToPose) can reach this node
@@ -201,6 +202,20 @@ fn serve_standalone(
             action_qos(),
         )?,
     );
+    // controller_server's FollowPath, which nav2_simple_commander's followPath() sends.
+    let follow_path = AsyncActionServer::new(
+        node.create_action_server::<FollowPathGoal, FollowPathResult, FollowPathFeedback>(
+            ServiceMapping::Enhanced,
+            &naming.name("follow_path")?,
+            &ActionTypeName::new("nav2_msgs", "FollowPath"),
+            action_qos(),
+        )?,
+    );
+    tasks.spawn(crate::follow_path::serve(
+        shared.clone(),
+        out.clone(),
+        follow_path,
+    ));
     let volatile = ros_edge::reliable(10, Durability::Volatile);
     let teleop_name = naming.name(&shared.params.behavior_server.cmd_vel_teleop)?;
     if shared.params.enable_stamped_cmd_vel {
