@@ -335,13 +335,16 @@ mod tests {
 
     #[test]
     fn a_spin_of_more_than_a_turn_sums_its_turning() {
-        let (end, _, done) = run(
+        let (end, sent, done) = run(
             Motion::Spin(Spin::new(2.0 * PI + 0.5).unwrap()),
             Pose::default(),
             1000,
         );
         assert!(done);
         assert!((wrap(end.yaw) - 0.5).abs() < 0.05, "{}", end.yaw);
+        // The whole turn and a half radian, not the half radian alone (the same end yaw).
+        let turned: f64 = sent.iter().map(|c| c.angular * 0.05).sum();
+        assert!((turned - (2.0 * PI + 0.5)).abs() < 0.05, "{turned}");
     }
 
     #[test]

@@ -123,6 +123,13 @@ mod tests {
         assert!(c.check(Some(&at(0.0, -2.68)), 9.0));
         assert!(c.check(Some(&at(0.0, -2.68)), 18.0));
         assert!(!c.check(Some(&at(0.0, -2.5)), 19.5), "0.18 rad in 10.5 s");
+        // A small turn across the seam is small: 3.1 -> -3.1 rad is 0.08 rad, not 6.2.
+        let mut c = ProgressChecker::new(ProgressParams::default());
+        assert!(c.check(Some(&at(0.0, 3.1)), 0.0));
+        assert!(
+            !c.check(Some(&at(0.0, -3.1)), 10.5),
+            "0.08 rad across the seam"
+        );
     }
 
     #[test]
@@ -143,12 +150,23 @@ mod tests {
     #[test]
     fn parameters_must_be_positive_and_finite() {
         assert!(ProgressParams::default().is_valid());
-        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            let p = ProgressParams {
-                movement_time_allowance: bad,
-                ..ProgressParams::default()
-            };
-            assert!(!p.is_valid(), "{bad}");
+        let fields: [fn(&mut ProgressParams) -> &mut f64; 3] = [
+            |p| &mut p.required_movement_radius,
+            |p| &mut p.required_movement_angle,
+            |p| &mut p.movement_time_allowance,
+        ];
+        for (k, field) in fields.iter().enumerate() {
+            for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+                let mut p = ProgressParams::default();
+                *field(&mut p) = bad;
+                assert!(!p.is_valid(), "field {k}: {bad}");
+            }
         }
+        // A day at most: a drive is judged within it.
+        let day = |t| ProgressParams {
+            movement_time_allowance: t,
+            ..ProgressParams::default()
+        };
+        assert!(day(86_400.0).is_valid() && !day(86_400.1).is_valid());
     }
 }

@@ -954,7 +954,11 @@ mod tests {
                 "    recovery: {wait_duration: -1.0}\n",
                 "recovery",
             ),
-            ("none.yaml", "    recovery: {behaviors: []}\n", "recovery"),
+            (
+                "no_behaviors.yaml",
+                "    recovery: {behaviors: []}\n",
+                "recovery",
+            ),
             (
                 "dance.yaml",
                 "    recovery: {behaviors: [spin, dance]}\n",

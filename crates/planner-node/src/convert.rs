@@ -585,6 +585,14 @@ mod tests {
         let msg = msg_from_grid(&map, "map", Time::default());
         let back = grid_from_msg(&msg).unwrap();
         assert_eq!(back.data(), map.data());
+        let (i, j) = (back.info(), map.info());
+        assert_eq!((i.width, i.height), (3, 2));
+        assert!(
+            (i.resolution - j.resolution).abs() < 1e-6,
+            "{}",
+            i.resolution
+        );
+        assert!((i.origin.x + 1.0).abs() < 1e-9 && (i.origin.y - 2.0).abs() < 1e-9);
         assert!((back.info().origin.yaw - 0.5).abs() < 1e-9);
         let mut bad = msg.clone();
         bad.data.pop();

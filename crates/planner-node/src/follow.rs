@@ -163,5 +163,6 @@ mod tests {
         assert_eq!(motion_command(&s, Some(pose)), Some(ahead));
         // Another goal's set does not reach it.
         assert!(!s.set_teleop(mine + 1, Twist2::STOP));
+        assert_eq!(motion_command(&s, Some(pose)), Some(ahead));
     }
 }

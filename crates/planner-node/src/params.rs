@@ -214,8 +214,11 @@ mod tests {
     fn every_setting_reads_and_writes_its_own_field_and_is_range_checked() {
         let base = PlannerConfig::default();
         for w in SETTINGS {
-            let changed = with_setting(&base, w.name, 0.25).unwrap().unwrap();
-            assert_eq!((w.get)(&changed), 0.25, "{}", w.name);
+            // A value each setting does not have already (the robot's radius is 0.25 by
+            // default), so that a setter writing nothing, or the wrong field, is caught.
+            let v = if (w.get)(&base) == 0.25 { 0.3 } else { 0.25 };
+            let changed = with_setting(&base, w.name, v).unwrap().unwrap();
+            assert_eq!((w.get)(&changed), v, "{}", w.name);
             // Every other setting is left as it was.
             for other in SETTINGS.iter().filter(|o| o.name != w.name) {
                 assert_eq!((other.get)(&changed), (other.get)(&base), "{}", other.name);

@@ -1115,6 +1115,16 @@ mod tests {
         // No via poses: the goal alone, wherever the robot is.
         let plain = Handover::new(goals[2..].to_vec(), &path, &[], 1.0);
         assert!(plain.via_at.is_empty());
+        let plain = Followed {
+            owner: 1,
+            goals: plain.goals,
+            via_at: plain.via_at,
+            path: Arc::new(plain.path),
+        };
+        for progress in 0..points.len() {
+            assert_eq!(plain.goals_ahead(progress), goals[2..]);
+            assert_eq!(plain.poses_ahead(progress), 1);
+        }
     }
 
     #[test]

@@ -616,6 +616,42 @@ pub(crate) mod tests {
             assert!(!search.two_opt(&mut seq.clone(), &mut Vec::new(), &mut Vec::new()));
             assert!(!search.or_opt(&mut seq.clone()));
             assert!((before - t.cost).abs() < 1e-9);
+            // The same, asked without the search's own pricing: every reversal and every move
+            // of one to three nodes (kept or reversed), priced by `tour_cost` on the plain
+            // order, costs at least the tour's.
+            let (lo, hi) = match end {
+                TourEnd::At(_) => (1, t.order.len() - 1),
+                _ => (1, t.order.len()),
+            };
+            let priced = |order: &[usize]| tour_cost(&costs, order, end);
+            assert!((priced(&t.order) - t.cost).abs() < 1e-9);
+            for i in lo..hi {
+                for j in i + 1..hi {
+                    let mut o = t.order.clone();
+                    o[i..=j].reverse();
+                    assert!(priced(&o) >= t.cost - 1e-9, "{end:?}: reversing {i}..={j}");
+                }
+                for len in 1..=3 {
+                    if i + len > hi {
+                        break;
+                    }
+                    for reversed in [false, true] {
+                        let mut rest = t.order.clone();
+                        let mut segment: Vec<usize> = rest.drain(i..i + len).collect();
+                        if reversed {
+                            segment.reverse();
+                        }
+                        for at in lo..=hi - len {
+                            let mut o = rest.clone();
+                            o.splice(at..at, segment.iter().copied());
+                            assert!(
+                                priced(&o) >= t.cost - 1e-9,
+                                "{end:?}: moving {i}+{len} to {at}, reversed {reversed}"
+                            );
+                        }
+                    }
+                }
+            }
         }
     }
 }
