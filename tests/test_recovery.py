@@ -344,17 +344,30 @@ def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):
         if math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) < 0.2:
             word.publish(Empty())
 
+    # When the robot came to the first waypoint, and when the patrol went on from it.
+    arrived, left = [], []
+
+    def watch():
+        if not arrived and math.hypot(robot.x - 2.0, robot.y - 1.5) < 0.15:
+            arrived.append(time.time())
+
     ros.node.create_timer(0.1, inspect)
+    ros.node.create_timer(0.05, watch)
     client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
     goal = FollowWaypoints.Goal(poses=[stamped(2.0, 1.5), stamped(*GOAL)])
-    t0 = time.time()
-    r, feedback = behave(ros, client, goal, 60)
+    log = ROOT / "target" / "patrol_planner_recovery_test.log"
+    timeouts = log.read_text().count("waypoint 0: no input on")
+    r, feedback = behave(ros, client, goal, 60,
+                         lambda f: f.current_waypoint == 1 and not left and left.append(time.time()))
     assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
     missed = [(m.index, m.error_code) for m in r.result.missed_waypoints]
     assert missed == [(0, 601)], missed
     assert [f.current_waypoint for f in feedback][-1] == 1
     assert math.hypot(robot.x - GOAL[0], robot.y - GOAL[1]) < 0.15
-    assert time.time() - t0 > INPUT_TIMEOUT, "the first waypoint waited its timeout"
+    # Missed for want of the word (not as a waypoint not reached, also 601), after waiting there.
+    assert log.read_text().count("waypoint 0: no input on") == timeouts + 1
+    assert arrived and left, (arrived, left)
+    assert left[0] - arrived[0] >= INPUT_TIMEOUT - 0.2, f"waited {left[0] - arrived[0]:.2f} s at waypoint 0"
 
 
 def test_assisted_teleop_keeps_the_operators_robot_off_the_pillar(rig):

@@ -88,8 +88,11 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
         assert ahead, "no stretch of the action's path left to block"
         bx, by = ahead[len(ahead) // 2]
         before = len(ros.plans)
-        ros.map_pub.publish(grid_msg(blocked(new_grid, bx, by, half=0.3), origin=(0.0, 0.0), res=RES))
-        ros.spin_until(lambda: [p for p in ros.plans[before:] if p.poses], 15, "a new /plan for the action's goal")
+        g2 = blocked(new_grid, bx, by, half=0.3)
+        ros.map_pub.publish(grid_msg(g2, origin=(0.0, 0.0), res=RES))
+        again = ros.spin_until(lambda: [p for p in ros.plans[before:] if p.poses], 15, "a new /plan for the action's goal")
+        # Round the block, not the rest of the old path (the simulated car has no map to hit).
+        assert_collision_free(again[-1], g2, origin=(0.0, 0.0), res=RES)
         ros.spin_until(result.done, 90, "the action's result")
         r = result.result()
         assert r.status == GoalStatus.STATUS_SUCCEEDED, f"status {r.status}: {r.result.error_msg}"
@@ -108,8 +111,10 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
         result = handle.get_result_async()
         ros.spin_until(lambda: any(f.number_of_poses_remaining == 2 for f in feedback), 60, "the car past the first via pose")
         before, seen = len(ros.plans), len(feedback)
-        ros.map_pub.publish(grid_msg(blocked(new_grid, 7.0, 0.6, half=0.4), origin=(0.0, 0.0), res=RES))
+        g3 = blocked(new_grid, 7.0, 0.6, half=0.4)
+        ros.map_pub.publish(grid_msg(g3, origin=(0.0, 0.0), res=RES))
         replanned = ros.spin_until(lambda: [p for p in ros.plans[before:] if p.poses], 15, "a new /plan for the through-poses goal")[-1]
+        assert_collision_free(replanned, g3, origin=(0.0, 0.0), res=RES)
 
         def passes(plan, q):
             return any(math.hypot(p.pose.position.x - q[0], p.pose.position.y - q[1]) < 1e-6 for p in plan.poses)
