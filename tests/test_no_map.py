@@ -87,14 +87,15 @@ def test_an_initial_pose_reanchors_odometry(bare):
             publish()
             ros.spin_for(0.2)
 
-    # Odometry says (0, 0); the user clicks "2D Pose Estimate" at (1, 1) facing +y.
+    # Odometry says (0, 0); the user clicks "2D Pose Estimate" at (1.5, 1) facing +y (not where
+    # the test before left the robot, (1, 1), so that an ignored pose cannot pass).
     settle(lambda: odom_pub.publish(odometry(0.0, 0.0)))
-    p = initial_pose(1.0, 1.0)
+    p = initial_pose(1.5, 1.0)
     p.pose.pose.orientation.z, p.pose.pose.orientation.w = math.sin(math.pi / 4), math.cos(math.pi / 4)
     settle(lambda: ros.initial_pub.publish(p))
     first = start_of_plan()
-    assert math.hypot(first.x - 1.0, first.y - 1.0) < 1e-6, f"the plan starts at the initial pose, not ({first.x}, {first.y})"
+    assert math.hypot(first.x - 1.5, first.y - 1.0) < 1e-6, f"the plan starts at the initial pose, not ({first.x}, {first.y})"
     # The robot drives 0.5 m forward in odom (+x): in the map that is +y from the initial pose.
     settle(lambda: odom_pub.publish(odometry(0.5, 0.0)))
     moved = start_of_plan()
-    assert math.hypot(moved.x - 1.0, moved.y - 1.5) < 1e-6, f"odometry carried the pose to ({moved.x}, {moved.y}), not (1.0, 1.5)"
+    assert math.hypot(moved.x - 1.5, moved.y - 1.5) < 1e-6, f"odometry carried the pose to ({moved.x}, {moved.y}), not (1.5, 1.5)"
