@@ -271,8 +271,11 @@ def start_inf(f):
 @fault("initial_pose_nan_ignored")
 def initial_pose_nan_ignored(f):
     # A pose topic has no answer: the node logs it and keeps the last good start pose.
+    log = ROOT / "target" / "patrol_planner_faults_test.log"
+    seen = log.read_text().count("/initialpose ignored")
     f.ros.initial_pub.publish(initial_pose(float("nan"), 1.0))
-    f.ros.spin_for(0.3)
+    # The pose has reached the node (and been refused) before the plan is asked for.
+    f.ros.spin_until(lambda: log.read_text().count("/initialpose ignored") > seen, 10, "the NaN pose refused in the log")
     plan, dt = f.get_plan(PoseStamped(), AWAY)  # empty frame: from the current start pose
     assert plan.poses and dt <= QUICK, "no plan from the last good start pose"
     first = plan.poses[0].pose.position

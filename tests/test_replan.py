@@ -9,12 +9,12 @@ action succeeds."""
 import math
 
 from action_msgs.msg import GoalStatus
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.action import ActionClient
 
 from nav2_msgs.action import NavigateThroughPoses, NavigateToPose
 
-from conftest import ROOT, driving_rig, stamped
+from conftest import LATCHED, ROOT, driving_rig, stamped
 from test_node import assert_collision_free, grid_msg
 from test_vehicle import bundled_map
 
@@ -35,8 +35,9 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
     params = tmp_path / "planner.yaml"
     params.write_text("patrol_planner:\n  ros__parameters:\n    map_yaml: ''\n    planner: astar\n")
     with driving_rig(40, params, ROOT / "config" / "chassis.yaml", "replan") as ros:
-        odom = []
+        odom, costmaps = [], []
         ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+        ros.node.create_subscription(OccupancyGrid, "/patrol_planner/costmap", costmaps.append, LATCHED)
         grid = bundled_map()
         ros.wait_matched(ros.map_pub, "/map")
         ros.map_pub.publish(grid_msg(grid, origin=(0.0, 0.0), res=RES))
@@ -51,7 +52,17 @@ def test_a_map_that_blocks_the_path_replans_one_that_does_not_keeps_it(tmp_path)
         assert min(math.hypot(x - far[0], y - far[1]) for x, y in pts) > 3.0
         before = len(ros.plans)
         ros.map_pub.publish(grid_msg(blocked(grid, *far), origin=(0.0, 0.0), res=RES))
-        ros.spin_for(3.0)
+
+        def far_block_in_force():
+            # The node's own costmap shows the block (lethal 100) once it plans on that map.
+            if not costmaps:
+                return False
+            m = costmaps[-1]
+            c, r = int(far[0] / RES), int(far[1] / RES)
+            return m.info.width == grid.shape[1] and m.data[r * m.info.width + c] == 100
+
+        ros.spin_until(far_block_in_force, 15, "the far block in the node's costmap")
+        ros.spin_for(2.0)
         assert len(ros.plans) == before, "a map that does not touch the path replanned it"
 
         # A block on the path well ahead of the car: a new plan round it, and the car drives on.
