@@ -165,16 +165,23 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         # order: each client gets its own (ros2-client reads result requests only while sending
         # a result; the node's tries look among those another goal's try has read).
         ros.spin_until(lambda: nav2.to_pose.server_is_ready(), 45, "the action server")
-        handles = []
-        for planner_id in ("", "any_angle"):
+        # Each goal has its own end, so a result handed to the other client is seen.
+        handles, ends = [], [goal, world(3.0, 7.0)]
+        for planner_id, end in zip(("", "any_angle"), ends):
             g = ComputePathToPose.Goal()
-            g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*goal), True, planner_id
+            g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*end), True, planner_id
             sent = nav2.to_pose.send_goal_async(g)
             handles.append(ros.spin_until(lambda: sent.done() and sent.result(), 20, "the goal's acceptance"))
         ros.spin_for(2.0)  # both planned (the first preempted or done) and waiting
         results = [h.get_result_async() for h in reversed(handles)]
         ros.spin_until(lambda: all(r.done() for r in results), 10, "both results, asked for late")
-        assert results[0].result().status == 4, results[0].result().result.error_msg  # the newer one
+        newer, older = results[0].result(), results[1].result()
+        assert newer.status == 4, newer.result.error_msg
+        assert near(newer.result.path.poses[-1], ends[1], 1e-6), "the newer goal got the older's result"
+        # The older one succeeded before the newer came, or was preempted (aborted) by it.
+        assert older.status in (4, 6), older.status
+        if older.status == 4:
+            assert near(older.result.path.poses[-1], ends[0], 1e-6), "the older goal got the newer's result"
 
         # is_path_valid: through the wall invalid with its indices, in free space valid.
         crossing = [world(4.0, 3.0), world(5.5, 3.0), world(7.0, 3.0)]
