@@ -220,11 +220,15 @@ def test_with_use_sim_time_the_node_stamps_with_the_simulations_clock(tmp_path):
         ros.map_pub.publish(grid_msg(grid))
         nav2 = Nav2Client(ros)
 
+        # Stamps are zero until the node's /clock reader has matched and read a first Clock
+        # (DDS discovery may match it after the map's): a plan stamped zero is asked again.
+        # Wall time (or anything but the simulation's 1234.5 s) fails below.
         def planned():
             status, result = nav2.get_path(world(1.0, 1.0), world(10.0, 5.0))
-            return result if result.error_code == 0 else None
+            stamp = result.path.header.stamp
+            return result if result.error_code == 0 and (stamp.sec, stamp.nanosec) != (0, 0) else None
 
-        result = ros.spin_until(planned, 30, "ComputePathToPose to plan under sim time")
+        result = ros.spin_until(planned, 30, "ComputePathToPose to plan under sim time, stamped")
         stamp = result.path.header.stamp
         assert (stamp.sec, stamp.nanosec) == (1234, 500000000), stamp
         ros.spin_until(lambda: ros.plans and ros.plans[-1].header.stamp.sec == 1234, 10, "/plan stamped 1234 s")
