@@ -20,6 +20,7 @@ controller_server's action): the planner's path driven to its end with controlle
 feedback, a sparse hand-made path densified and driven; refused before the car moves, with
 FollowPath's codes: an unknown controller id (101), a frame the node cannot place (102), a path
 into a cabinet or starting metres from the car (103)."""
+import contextlib
 import math
 
 from action_msgs.msg import GoalStatus
@@ -37,6 +38,24 @@ FAR = (5.0, 1.0, 0.0)
 CABINET = (3.1, 1.9, 0.0)
 
 
+@contextlib.contextmanager
+def car_on_the_bundled_map(tmp_path, offset, name):
+    """The node (any_angle, on the bundled map) and the simulated car on a domain of their own
+    (`offset`), with the /odom and /cmd_vel seen from outside, once the car's first odometry
+    has arrived: yields (ros, odom, cmds)."""
+    params = tmp_path / "planner.yaml"
+    params.write_text(
+        "patrol_planner:\n  ros__parameters:\n"
+        f"    map_yaml: {MAP}\n    planner: any_angle\n"
+    )
+    with driving_rig(offset, params, ROOT / "config" / "chassis.yaml", name) as ros:
+        odom, cmds = [], []
+        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
+        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
+        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+        yield ros, odom, cmds
+
+
 def assert_within_limits(cmds):
     """Every /cmd_vel within the car's 0.6 m/s and 0.4 rad/s, and enough of them, some fast,
     that the check is not over nothing."""
@@ -46,16 +65,7 @@ def assert_within_limits(cmds):
 
 
 def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_does(tmp_path):
-    params = tmp_path / "planner.yaml"
-    params.write_text(
-        "patrol_planner:\n  ros__parameters:\n"
-        f"    map_yaml: {MAP}\n    planner: any_angle\n"
-    )
-    with driving_rig(55, params, ROOT / "config" / "chassis.yaml", "navigate") as ros:
-        odom, cmds = [], []
-        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
-        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
-        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+    with car_on_the_bundled_map(tmp_path, 55, "navigate") as (ros, odom, cmds):
         client = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
         ros.wait_action_answers(client, NavigateToPose.Goal(pose=stamped(*NEAR, frame="nowhere")), "the navigate_to_pose action")
 
@@ -123,17 +133,9 @@ def test_goals_are_driven_to_preempted_cancelled_and_refused_as_bt_navigator_doe
 
 
 def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_path):
-    params = tmp_path / "planner.yaml"
-    params.write_text(
-        "patrol_planner:\n  ros__parameters:\n"
-        f"    map_yaml: {MAP}\n    planner: any_angle\n"
-    )
-    with driving_rig(65, params, ROOT / "config" / "chassis.yaml", "navigate_through") as ros:
-        odom, cmds, plans = [], [], []
-        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
-        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
+    with car_on_the_bundled_map(tmp_path, 65, "navigate_through") as (ros, odom, cmds):
+        plans = []
         ros.node.create_subscription(Path, "/plan", plans.append, 10)
-        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
         client = ActionClient(ros.node, NavigateThroughPoses, "navigate_through_poses")
         ros.wait_action_answers(client, NavigateThroughPoses.Goal(poses=[]), "the navigate_through_poses action")
         to_pose = ActionClient(ros.node, NavigateToPose, "navigate_to_pose")
@@ -224,16 +226,7 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
 
 
 def test_follow_path_drives_a_given_path_as_controller_server_does(tmp_path):
-    params = tmp_path / "planner.yaml"
-    params.write_text(
-        "patrol_planner:\n  ros__parameters:\n"
-        f"    map_yaml: {MAP}\n    planner: any_angle\n"
-    )
-    with driving_rig(57, params, ROOT / "config" / "chassis.yaml", "follow_path") as ros:
-        odom, cmds = [], []
-        ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
-        ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
-        ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+    with car_on_the_bundled_map(tmp_path, 57, "follow_path") as (ros, odom, cmds):
         follow = ActionClient(ros.node, FollowPath, "follow_path")
         # An empty path is INVALID_PATH at once: the probe that the action answers.
         ros.wait_action_answers(follow, FollowPath.Goal(), "the follow_path action")
