@@ -24,6 +24,7 @@ use chassis::progress::ProgressChecker;
 use log::{info, warn};
 use planner_core::geometry::Pose2;
 use planner_io::parameters::RecoveryBehavior;
+use ros2_client::action::GoalEndStatus;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -70,6 +71,52 @@ impl DriveEnd {
             DriveEnd::Stopped => "stopped".into(),
             DriveEnd::Superseded => "superseded".into(),
         }
+    }
+}
+
+/// FollowPath's FAILED_TO_MAKE_PROGRESS (controller_server's code, which bt_navigator passes
+/// on): the plan was followed but not to its end in time, or the robot made no progress.
+pub const FAILED_TO_MAKE_PROGRESS: u16 = 105;
+
+/// How the drive of an action's goal ended, as that goal's end: its status, error code and
+/// message (navigate_to_pose, navigate_through_poses: navigate.rs; follow_path:
+/// follow_path.rs). Succeeded at `to`; canceled or aborted on request (a cancel, a newer goal
+/// of the same action), code 0; aborted with code 0 when another goal took the robot; with
+/// `no_plan`'s code for a failed plan; with FAILED_TO_MAKE_PROGRESS when it did not get there.
+/// Each end is logged.
+pub(crate) fn action_end(
+    name: &str,
+    end: DriveEnd,
+    stop: &GoalStop,
+    to: Pose2,
+    started: Instant,
+    no_plan: impl FnOnce(&Failure) -> u16,
+) -> (GoalEndStatus, u16, String) {
+    let failed = |error_code: u16, error_msg: String| {
+        warn!("{name}: {error_code}: {error_msg}");
+        (GoalEndStatus::Aborted, error_code, error_msg)
+    };
+    match end {
+        DriveEnd::Reached => {
+            info!(
+                "{name}: reached ({:.2}, {:.2}) in {:.1} s",
+                to.x,
+                to.y,
+                started.elapsed().as_secs_f64()
+            );
+            (GoalEndStatus::Succeeded, 0, String::new())
+        }
+        DriveEnd::Stopped => {
+            let why = stop.reason();
+            info!("{name}: {why}");
+            (stop.end_status(), 0, why.into())
+        }
+        DriveEnd::Superseded => failed(
+            0,
+            "preempted by a newer goal on /goal_pose or another action".into(),
+        ),
+        DriveEnd::NoPlan(f) => failed(no_plan(&f), f.message),
+        DriveEnd::NotReached(why) => failed(FAILED_TO_MAKE_PROGRESS, why),
     }
 }
 

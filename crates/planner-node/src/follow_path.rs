@@ -23,7 +23,7 @@
 
 use crate::action_server::{Feedback, GoalStop};
 use crate::actions::invalid_poses;
-use crate::drive::{watch_followed, DriveEnd, Progress};
+use crate::drive::{action_end, watch_followed, Progress};
 use crate::outputs::Outputs;
 use crate::result::ResultCode;
 use crate::state::{Handover, Shared};
@@ -42,7 +42,6 @@ const UNKNOWN: u16 = 100;
 const INVALID_CONTROLLER: u16 = 101;
 const TF_ERROR: u16 = 102;
 const INVALID_PATH: u16 = 103;
-const FAILED_TO_MAKE_PROGRESS: u16 = 105;
 
 /// The most poses a path may have: a million-pose path would be 100 km at Nav2's 0.1 m spacing;
 /// the bound keeps a malformed one from costing the node its memory.
@@ -180,17 +179,20 @@ async fn follow_path(
     }
     // Densified as a plan is published, so that the follower's lookahead and progress work on
     // a sparse path (two poses metres apart) as on a planner's.
-    let end = *poses.last().expect("checked non-empty");
+    let end_pose = *poses.last().expect("checked non-empty");
     let waypoints: Vec<Point2> = poses.iter().map(|p| Point2::new(p.x, p.y)).collect();
     let path = crate::convert::path_msg(
         &waypoints,
-        end.yaw,
+        end_pose.yaw,
         map.grid.resolution(),
         goal.path.header.clone(),
     );
     let mine = s.take_robot();
     let started = Instant::now();
-    if !s.follow(mine, Handover::new(vec![end], &path, &[], end.yaw)) {
+    if !s.follow(
+        mine,
+        Handover::new(vec![end_pose], &path, &[], end_pose.yaw),
+    ) {
         return failed(
             UNKNOWN,
             "the robot was taken, or the node deactivated, as the path was handed over".into(),
@@ -199,8 +201,8 @@ async fn follow_path(
     info!(
         "{NAME}: following {} poses to ({:.2}, {:.2})",
         poses.len(),
-        end.x,
-        end.y
+        end_pose.x,
+        end_pose.y
     );
     let progress = |p: Progress| {
         let feedback = feedback.clone();
@@ -210,23 +212,7 @@ async fn follow_path(
         };
         async move { feedback.send(message).await }
     };
-    match watch_followed(&s, mine, &stop, started, progress).await {
-        DriveEnd::Reached => {
-            info!(
-                "{NAME}: reached ({:.2}, {:.2}) in {:.1} s",
-                end.x,
-                end.y,
-                started.elapsed().as_secs_f64()
-            );
-            (GoalEndStatus::Succeeded, result(0, String::new()))
-        }
-        DriveEnd::Stopped => {
-            let why = stop.reason();
-            info!("{NAME}: {why}");
-            (stop.end_status(), result(0, why.into()))
-        }
-        DriveEnd::Superseded => failed(0, "preempted by a newer goal".into()),
-        DriveEnd::NoPlan(f) => failed(UNKNOWN, f.message),
-        DriveEnd::NotReached(why) => failed(FAILED_TO_MAKE_PROGRESS, why),
-    }
+    let end = watch_followed(&s, mine, &stop, started, progress).await;
+    let (status, code, why) = action_end(NAME, end, &stop, end_pose, started, |_| UNKNOWN);
+    (status, result(code, why))
 }

@@ -22,7 +22,7 @@
 use crate::action_server::{Feedback, GoalStop};
 use crate::actions::{nav2_code, NO_VIAPOINTS_GIVEN};
 use crate::convert::{duration_msg, pose_stamped};
-use crate::drive::{drive_to, DriveEnd, Progress};
+use crate::drive::{action_end, drive_to, Progress};
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use log::{info, warn};
@@ -36,9 +36,6 @@ use ros2_client::action::{AsyncActionServer, GoalEndStatus};
 use ros2_client::Message;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-/// FollowPath's FAILED_TO_MAKE_PROGRESS: the plan was followed but not to its end in time.
-const FAILED_TO_MAKE_PROGRESS: u16 = 105;
 
 /// One tick of a navigation's feedback, whichever action it is for.
 pub struct NavigationFeedback {
@@ -219,28 +216,11 @@ async fn navigate<G: NavigateGoal>(
             )
         }
     };
-    match drive_to(s, o, &goals, mine.mine, stop, progress).await {
-        DriveEnd::Reached => {
-            info!(
-                "{name}: reached ({:.2}, {:.2}) in {:.1} s",
-                to.x,
-                to.y,
-                started.elapsed().as_secs_f64()
-            );
-            (GoalEndStatus::Succeeded, G::result(0, String::new()))
-        }
-        DriveEnd::Stopped => {
-            let why = stop.reason();
-            info!("{name}: {why}");
-            (stop.end_status(), G::result(0, why.into()))
-        }
-        DriveEnd::Superseded => failed(
-            0,
-            "preempted by a newer goal on /goal_pose or another action".into(),
-        ),
-        DriveEnd::NoPlan(f) => failed(nav2_code(f.code, G::CODE_BASE), f.message),
-        DriveEnd::NotReached(why) => failed(FAILED_TO_MAKE_PROGRESS, why),
-    }
+    let end = drive_to(s, o, &goals, mine.mine, stop, progress).await;
+    let (status, code, why) = action_end(name, end, stop, to, started, |f| {
+        nav2_code(f.code, G::CODE_BASE)
+    });
+    (status, G::result(code, why))
 }
 
 /// A goal's claim to be the navigator navigating, given up when its run ends, however it ends.
