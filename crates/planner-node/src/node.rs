@@ -103,6 +103,29 @@ fn action_qos() -> ActionServerQosPolicies {
     }
 }
 
+/// A server of the nav2_msgs action `type_name` on `name` (the node's namespace and remappings
+/// applied), with rcl_action's QoS: every action this node serves is one of Nav2's.
+fn nav2_action_server<G, R, F>(
+    node: &mut ros2_client::Node,
+    naming: &Naming,
+    name: &str,
+    type_name: &str,
+) -> Result<AsyncActionServer<G, R, F>>
+where
+    G: ros2_client::Message + Clone + 'static,
+    R: ros2_client::Message + Clone + 'static,
+    F: ros2_client::Message + 'static,
+{
+    Ok(AsyncActionServer::new(
+        node.create_action_server::<G, R, F>(
+            ServiceMapping::Enhanced,
+            &naming.name(name)?,
+            &ActionTypeName::new("nav2_msgs", type_name),
+            action_qos(),
+        )?,
+    ))
+}
+
 /// Serves what the rest of a Nav2 stack serves, for a node standing alone (`follow_plan`): the
 /// actions that drive the robot, bt_navigator's `navigate_to_pose` and `navigate_through_poses`
 /// (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs) and behavior_server's
@@ -120,53 +143,32 @@ fn serve_standalone(
     shared: &Arc<Shared>,
     out: &Outputs,
 ) -> Result<()> {
-    let navigate_to_pose = AsyncActionServer::new(node.create_action_server::<
+    let navigate_to_pose = nav2_action_server::<
         NavigateToPoseGoal,
         NavigateToPoseResult,
         NavigateToPoseFeedback,
-    >(
-        ServiceMapping::Enhanced,
-        &naming.name("navigate_to_pose")?,
-        &ActionTypeName::new("nav2_msgs", "NavigateToPose"),
-        action_qos(),
-    )?);
-    let navigate_through_poses = AsyncActionServer::new(node.create_action_server::<
+    >(node, naming, "navigate_to_pose", "NavigateToPose")?;
+    let navigate_through_poses = nav2_action_server::<
         NavigateThroughPosesGoal,
         NavigateThroughPosesResult,
         NavigateThroughPosesFeedback,
     >(
-        ServiceMapping::Enhanced,
-        &naming.name("navigate_through_poses")?,
-        &ActionTypeName::new("nav2_msgs", "NavigateThroughPoses"),
-        action_qos(),
-    )?);
-    let follow_waypoints = AsyncActionServer::new(node.create_action_server::<
+        node,
+        naming,
+        "navigate_through_poses",
+        "NavigateThroughPoses",
+    )?;
+    let follow_waypoints = nav2_action_server::<
         FollowWaypointsGoal,
         FollowWaypointsResult,
         FollowWaypointsFeedback,
-    >(
-        ServiceMapping::Enhanced,
-        &naming.name("follow_waypoints")?,
-        &ActionTypeName::new("nav2_msgs", "FollowWaypoints"),
-        action_qos(),
-    )?);
+    >(node, naming, "follow_waypoints", "FollowWaypoints")?;
     // Nav2's behavior server's actions (see behaviors.rs), under its names.
-    let spin = AsyncActionServer::new(
-        node.create_action_server::<SpinGoal, BehaviorResult, SpinFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("spin")?,
-            &ActionTypeName::new("nav2_msgs", "Spin"),
-            action_qos(),
-        )?,
-    );
-    let backup = AsyncActionServer::new(
-        node.create_action_server::<BackUpGoal, BehaviorResult, BackUpFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("backup")?,
-            &ActionTypeName::new("nav2_msgs", "BackUp"),
-            action_qos(),
-        )?,
-    );
+    let spin =
+        nav2_action_server::<SpinGoal, BehaviorResult, SpinFeedback>(node, naming, "spin", "Spin")?;
+    let backup = nav2_action_server::<BackUpGoal, BehaviorResult, BackUpFeedback>(
+        node, naming, "backup", "BackUp",
+    )?;
     // The global costmap's GetCostmap, which nav2_simple_commander's getGlobalCostmap() calls.
     let get_costmap = node.create_server::<GetCostmapRequest, GetCostmapResponse>(
         ServiceMapping::Enhanced,
@@ -175,42 +177,29 @@ fn serve_standalone(
         ros_edge::reliable(10, Durability::Volatile),
         ros_edge::reliable(10, Durability::Volatile),
     )?;
-    let drive_on_heading = AsyncActionServer::new(
-        node.create_action_server::<DriveOnHeadingGoal, BehaviorResult, BackUpFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("drive_on_heading")?,
-            &ActionTypeName::new("nav2_msgs", "DriveOnHeading"),
-            action_qos(),
-        )?,
-    );
-    let wait = AsyncActionServer::new(
-        node.create_action_server::<WaitGoal, BehaviorResult, WaitFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("wait")?,
-            &ActionTypeName::new("nav2_msgs", "Wait"),
-            action_qos(),
-        )?,
-    );
+    let drive_on_heading = nav2_action_server::<DriveOnHeadingGoal, BehaviorResult, BackUpFeedback>(
+        node,
+        naming,
+        "drive_on_heading",
+        "DriveOnHeading",
+    )?;
+    let wait =
+        nav2_action_server::<WaitGoal, BehaviorResult, WaitFeedback>(node, naming, "wait", "Wait")?;
     // Nav2's AssistedTeleop: the action, the operator's commands (Twist, or TwistStamped as
     // Nav2 reads them with enable_stamped_cmd_vel) and preempt_teleop, with Nav2's QoS
     // (system defaults: reliable, volatile, depth 10).
-    let assisted_teleop = AsyncActionServer::new(
-        node.create_action_server::<AssistedTeleopGoal, BehaviorResult, AssistedTeleopFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("assisted_teleop")?,
-            &ActionTypeName::new("nav2_msgs", "AssistedTeleop"),
-            action_qos(),
-        )?,
-    );
+    let assisted_teleop = nav2_action_server::<
+        AssistedTeleopGoal,
+        BehaviorResult,
+        AssistedTeleopFeedback,
+    >(node, naming, "assisted_teleop", "AssistedTeleop")?;
     // controller_server's FollowPath, which nav2_simple_commander's followPath() sends.
-    let follow_path = AsyncActionServer::new(
-        node.create_action_server::<FollowPathGoal, FollowPathResult, FollowPathFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("follow_path")?,
-            &ActionTypeName::new("nav2_msgs", "FollowPath"),
-            action_qos(),
-        )?,
-    );
+    let follow_path = nav2_action_server::<FollowPathGoal, FollowPathResult, FollowPathFeedback>(
+        node,
+        naming,
+        "follow_path",
+        "FollowPath",
+    )?;
     tasks.spawn(crate::follow_path::serve(
         shared.clone(),
         out.clone(),
@@ -569,22 +558,19 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         ros_edge::reliable(REPLY_QUEUE, Durability::Volatile),
     )?;
     // Nav2's planner-server interface (see actions.rs): two actions and is_path_valid.
-    let to_pose = AsyncActionServer::new(
-        node.create_action_server::<ComputePathToPoseGoal, ComputePathResult, EmptyFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("compute_path_to_pose")?,
-            &ActionTypeName::new("nav2_msgs", "ComputePathToPose"),
-            action_qos(),
-        )?,
-    );
-    let through_poses = AsyncActionServer::new(
-        node.create_action_server::<ComputePathThroughPosesGoal, ComputePathResult, EmptyFeedback>(
-            ServiceMapping::Enhanced,
-            &naming.name("compute_path_through_poses")?,
-            &ActionTypeName::new("nav2_msgs", "ComputePathThroughPoses"),
-            action_qos(),
-        )?,
-    );
+    let to_pose = nav2_action_server::<ComputePathToPoseGoal, ComputePathResult, EmptyFeedback>(
+        &mut node,
+        &naming,
+        "compute_path_to_pose",
+        "ComputePathToPose",
+    )?;
+    let through_poses =
+        nav2_action_server::<ComputePathThroughPosesGoal, ComputePathResult, EmptyFeedback>(
+            &mut node,
+            &naming,
+            "compute_path_through_poses",
+            "ComputePathThroughPoses",
+        )?;
     let is_path_valid = node.create_server::<IsPathValidRequest, IsPathValidResponse>(
         ServiceMapping::Enhanced,
         &naming.name("is_path_valid")?,
