@@ -24,11 +24,10 @@
 use crate::action_server::{Feedback, GoalStop};
 use crate::actions::invalid_poses;
 use crate::drive::{action_end, watch_followed, Progress};
+use crate::localization::compose;
 use crate::outputs::Outputs;
-use crate::result::ResultCode;
 use crate::state::{Handover, Shared};
 use log::{info, warn};
-use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav2_msgs::{FollowPathFeedback, FollowPathGoal, FollowPathResult};
 use planner_core::geometry::{Point2, Pose2};
 use ros2_client::action::{AsyncActionServer, GoalEndStatus};
@@ -81,23 +80,17 @@ fn poses_in_global(s: &Shared, goal: &FollowPathGoal) -> Result<Vec<Pose2>, (u16
             format!("{} poses, at most {MAX_POSES}", poses.len()),
         ));
     }
-    // The path's frame is the header's, as controller_server reads it.
+    // The path's frame is the header's, as controller_server reads it: placed once.
+    let origin = s
+        .frame_in_global(&goal.path.header.frame_id)
+        .map_err(|f| (TF_ERROR, format!("the path's frame: {}", f.message)))?;
     poses
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let stamped = PoseStamped {
-                header: goal.path.header.clone(),
-                pose: p.pose,
-            };
-            s.pose_in_global(&stamped).map_err(|f| {
-                let code = if f.code == ResultCode::TfError {
-                    TF_ERROR
-                } else {
-                    INVALID_PATH
-                };
-                (code, format!("pose {i}: {}", f.message))
-            })
+            crate::convert::pose2(&p.pose)
+                .map(|pose| compose(origin, pose))
+                .map_err(|f| (INVALID_PATH, format!("pose {i}: {}", f.message)))
         })
         .collect()
 }

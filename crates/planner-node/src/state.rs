@@ -386,6 +386,13 @@ impl Shared {
     /// global frame, `odom_frame`, `robot_base_frame`) as a pose in the global frame, through
     /// the latest transform; TF_ERROR, with the reason, for any other frame.
     pub fn pose_in_global(&self, msg: &PoseStamped) -> Result<Pose2, Failure> {
+        let origin = self.frame_in_global(&msg.header.frame_id)?;
+        Ok(compose(origin, crate::convert::pose2(&msg.pose)?))
+    }
+
+    /// Where the frame `frame_id` is in the global frame, as [`Shared::pose_in_global`] finds
+    /// it (once for many poses in one frame, a path's).
+    pub fn frame_in_global(&self, frame_id: &str) -> Result<Pose2, Failure> {
         let frames = KnownFrames {
             global: &self.params.global_frame,
             odom: &self.params.odom_frame,
@@ -393,10 +400,9 @@ impl Shared {
             base: &self.params.robot_base_frame,
             robot: self.start.read().expect("lock").map(|(p, _)| p),
         };
-        let origin = frames
-            .in_global(crate::convert::frame_name(&msg.header.frame_id))
-            .map_err(|why| Failure::new(ResultCode::TfError, why))?;
-        Ok(compose(origin, crate::convert::pose2(&msg.pose)?))
+        frames
+            .in_global(crate::convert::frame_name(frame_id))
+            .map_err(|why| Failure::new(ResultCode::TfError, why))
     }
 
     /// The robot's pose (global frame) from odometry no older than `pose_timeout`: what the
