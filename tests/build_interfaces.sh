@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds tests/interfaces/nav2_msgs (the ROS 2 Jazzy nav2_msgs interfaces the rclpy tests use:
 # ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp,
-# DriveOnHeading, Wait, AssistedTeleop, FollowPath, IsPathValid, GetCostmap, LoadMap, SpeedLimit, CostmapFilterInfo) and
+# DriveOnHeading, Wait, AssistedTeleop, FollowPath, IsPathValid, GetCostmap, LoadMap, the four costmap clearing services, SpeedLimit, CostmapFilterInfo) and
 # tests/interfaces/map_msgs (OccupancyGridUpdate, costmap_2d's partial updates) and installs them
 # into the test venv, so that `from nav2_msgs.action import ComputePathToPose` works there and
 # rclpy can create action and service clients and servers for them. Neither has a wheel on PyPI,
@@ -36,11 +36,11 @@ START=$SECONDS
 works() {
   env -u LD_LIBRARY_PATH -u _ROS_WHEELS_BOOTSTRAP_COMPLETE -u PYTHONPATH -u AMENT_PREFIX_PATH "$PY" -c '
 from nav2_msgs.action import AssistedTeleop, ComputePathToPose, FollowPath, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp, DriveOnHeading, Wait
-from nav2_msgs.srv import GetCostmap, IsPathValid
+from nav2_msgs.srv import ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid
 from nav2_msgs.msg import CostmapFilterInfo, SpeedLimit
 from map_msgs.msg import OccupancyGridUpdate
 from rclpy.type_support import check_for_type_support
-for t in (AssistedTeleop, ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp, DriveOnHeading, Wait, GetCostmap, IsPathValid, CostmapFilterInfo, SpeedLimit, OccupancyGridUpdate):
+for t in (AssistedTeleop, ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp, DriveOnHeading, Wait, ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid, CostmapFilterInfo, SpeedLimit, OccupancyGridUpdate):
     check_for_type_support(t)
 ' "$@"
 }

@@ -21,8 +21,10 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - A speed limit on `speed_limit` (nav2_msgs/SpeedLimit, as Nav2's speed filter sends it) slows
   the drive; 0 lifts it. A speed zone, as Nav2's speed filter makes one from the mask its
   CostmapFilterInfo names, slows the drive inside it and only there.
-- The global costmap as nav2_simple_commander's getGlobalCostmap() asks for it (GetCostmap): the
-  room's grid, the pillar lethal, its inflated band inscribed, the open floor free.
+- The costmaps as nav2_simple_commander asks for them: getGlobalCostmap() (GetCostmap) the room's
+  grid, the pillar lethal, its inflated band inscribed, the open floor free; getLocalCostmap() a
+  3 m window of it round the robot; clearAllCostmaps() and the other clearing services answered,
+  the grid as it was (nothing in it is a layer costmap_2d clears).
 - A patrol (follow_waypoints) waits at each waypoint for the inspection's word (Nav2's
   InputAtWaypoint): a waypoint without one is missed after the timeout (601), the patrol goes on.
 - Assisted teleop (nav2_simple_commander's assistedTeleop()): the operator's command toward the
@@ -44,7 +46,8 @@ from nav_msgs.srv import GetPlan
 from rclpy.action import ActionClient
 
 from nav2_msgs.action import BackUp, DriveOnHeading, NavigateToPose, Spin, Wait
-from nav2_msgs.srv import GetCostmap
+from nav2_msgs.srv import (ClearCostmapAroundPose, ClearCostmapAroundRobot, ClearCostmapExceptRegion,
+                           ClearEntireCostmap, GetCostmap)
 
 from conftest import ROOT, Ros, call_service, domain_id, stamped, start_node, stop_binary
 from test_node import grid_msg
@@ -496,8 +499,8 @@ def test_the_behavior_servers_actions(rig):
     assert feedback and feedback[0].time_left.sec + feedback[0].time_left.nanosec * 1e-9 > 0.5
 
 
-def test_the_global_costmap_as_get_global_costmap_asks(rig):
-    ros, _, _ = rig
+def test_the_costmaps_as_nav2_simple_commander_asks(rig):
+    ros, robot, _ = rig
     costmap = call_service(ros, GetCostmap, "global_costmap/get_costmap", GetCostmap.Request()).map
     meta = costmap.metadata
     assert (meta.size_x, meta.size_y, meta.layer) == (60, 30, "master"), meta
@@ -507,3 +510,33 @@ def test_the_global_costmap_as_get_global_costmap_asks(rig):
     assert cost[19, 27] == 253, "next to it, the robot's centre may not be: inscribed"
     assert cost[5, 55] == 0 and cost[5, 5] == 0, "the open floor, far from the pillar, is free"
     assert 0 < cost[15, 27] < 253, "graded in between"
+
+    # getLocalCostmap(): local_costmap.width x height (3 m x 3 m) of the same grid round the
+    # robot, put beside the pillar: cells 7-36 x 3-32, the rows past the room unknown.
+    robot.x, robot.y = 2.25, 1.85
+
+    def local_round_robot():
+        local = call_service(ros, GetCostmap, "local_costmap/get_costmap", GetCostmap.Request()).map
+        o = local.metadata.origin.position
+        return local if (round(o.x / 0.1), round(o.y / 0.1)) == (7, 3) else None
+
+    local = ros.spin_until(local_round_robot, 20, "a local costmap round the robot's new pose")
+    assert (local.metadata.size_x, local.metadata.size_y) == (30, 30), local.metadata
+    window = np.array(local.data, dtype=np.uint8).reshape(30, 30)
+    assert (window[:27, :] == cost[3:30, 7:37]).all(), "the grid's own costs, cell for cell"
+    assert (window[27:, :] == 255).all(), "past the room: no information"
+    assert (window[17:27, 18:23] == 254).all(), "the pillar"
+
+    # clearAllCostmaps() and the other clearing services answer and clear nothing: the grid
+    # is the map, its inflation and filters, none of which costmap_2d clears.
+    for costmap_name in ("global_costmap", "local_costmap"):
+        for prefix, srv, request in (
+            ("clear_entirely_", ClearEntireCostmap, ClearEntireCostmap.Request()),
+            ("clear_around_", ClearCostmapAroundRobot, ClearCostmapAroundRobot.Request(reset_distance=2.0)),
+            ("clear_except_", ClearCostmapExceptRegion, ClearCostmapExceptRegion.Request(reset_distance=2.0)),
+            ("clear_around_pose_", ClearCostmapAroundPose, ClearCostmapAroundPose.Request(
+                pose=stamped(2.7, 2.5), reset_distance=1.0)),
+        ):
+            assert call_service(ros, srv, f"{costmap_name}/{prefix}{costmap_name}", request) is not None
+    after = call_service(ros, GetCostmap, "global_costmap/get_costmap", GetCostmap.Request()).map
+    assert list(after.data) == list(costmap.data), "the pillar and its inflation are still there"

@@ -17,7 +17,8 @@ use patrol_msgs::geometry_msgs::{
 use patrol_msgs::lifecycle_msgs::ChangeStateRequest;
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
-    BackUpGoal, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
+    BackUpGoal, ClearCostmapAroundPoseRequest, ClearCostmapAroundRobotRequest,
+    ClearCostmapExceptRegionRequest, ClearEntireCostmapRequest, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
     DriveOnHeadingGoal, FollowPathGoal, FollowWaypointsGoal, GetCostmapRequest, IsPathValidRequest,
     LoadMapRequest, NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
@@ -70,7 +71,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 26 {
+    match selector % 30 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -141,6 +142,10 @@ fuzz_target!(|data: &[u8]| {
                 assert!(goal.path.poses.len() <= payload.len());
             }
         }
-        _ => drop(round_trip::<ChangeStateRequest>(payload)),
+        25 => drop(round_trip::<ChangeStateRequest>(payload)),
+        26 => drop(round_trip::<ClearEntireCostmapRequest>(payload)),
+        27 => drop(round_trip::<ClearCostmapAroundRobotRequest>(payload)),
+        28 => drop(round_trip::<ClearCostmapExceptRegionRequest>(payload)),
+        _ => drop(round_trip::<ClearCostmapAroundPoseRequest>(payload)),
     }
 });

@@ -483,6 +483,34 @@ pub mod nav2_msgs {
     pub struct GetCostmapResponse {
         pub map: Costmap,
     }
+    /// nav2_msgs/srv/ClearEntireCostmap request (a std_msgs/Empty named `request`)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ClearEntireCostmapRequest {
+        pub request: super::std_msgs::Empty,
+    }
+    /// nav2_msgs/srv/ClearCostmapAroundRobot request: the side of the square round the robot
+    /// to clear (m)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ClearCostmapAroundRobotRequest {
+        pub reset_distance: f32,
+    }
+    /// nav2_msgs/srv/ClearCostmapExceptRegion request: the side of the square round the robot
+    /// to keep (m)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ClearCostmapExceptRegionRequest {
+        pub reset_distance: f32,
+    }
+    /// nav2_msgs/srv/ClearCostmapAroundPose request
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ClearCostmapAroundPoseRequest {
+        pub pose: super::geometry_msgs::PoseStamped,
+        pub reset_distance: f64,
+    }
+    /// The response of all four costmap clearing services (a std_msgs/Empty named `response`)
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct ClearCostmapResponse {
+        pub response: super::std_msgs::Empty,
+    }
     /// nav2_msgs/msg/SpeedLimit: the speed limit controller_server takes on `speed_limit`
     /// (Nav2's speed filter publishes it): in percent of the top speed, or in m/s; 0 no limit
     #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -628,6 +656,11 @@ pub mod nav2_msgs {
         Costmap,
         GetCostmapRequest,
         GetCostmapResponse,
+        ClearEntireCostmapRequest,
+        ClearCostmapAroundRobotRequest,
+        ClearCostmapExceptRegionRequest,
+        ClearCostmapAroundPoseRequest,
+        ClearCostmapResponse,
         LoadMapRequest,
         LoadMapResponse,
         CostmapFilterInfo,

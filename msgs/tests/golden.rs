@@ -604,6 +604,25 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         },
         g::GET_COSTMAP_RESPONSE,
     );
+    // costmap_2d's clearing services: std_msgs/Empty fields, and a pose beside an f64.
+    check(
+        "ClearEntireCostmap request",
+        ClearEntireCostmapRequest::default(),
+        g::CLEAR_ENTIRE_COSTMAP_REQUEST,
+    );
+    check(
+        "ClearEntireCostmap response",
+        ClearCostmapResponse::default(),
+        g::CLEAR_ENTIRE_COSTMAP_RESPONSE,
+    );
+    check(
+        "ClearCostmapAroundPose request",
+        ClearCostmapAroundPoseRequest {
+            pose: stamped(1.0, 2.0),
+            reset_distance: 3.5,
+        },
+        g::CLEAR_COSTMAP_AROUND_POSE_REQUEST,
+    );
     check(
         "SpeedLimit",
         SpeedLimit {

@@ -18,7 +18,7 @@ from nav2_msgs.action import (AssistedTeleop, BackUp, ComputePathThroughPoses, C
                               DriveOnHeading, FollowWaypoints, NavigateThroughPoses, NavigateToPose,
                               Spin, Wait)
 from nav2_msgs.msg import MissedWaypoint
-from nav2_msgs.srv import GetCostmap, IsPathValid, LoadMap
+from nav2_msgs.srv import ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid, LoadMap
 from rosgraph_msgs.msg import Clock
 from nav2_msgs.msg import Costmap, CostmapFilterInfo, CostmapMetaData, SpeedLimit
 
@@ -151,6 +151,10 @@ def messages():
     meta.map_load_time.sec, meta.update_time.sec, meta.update_time.nanosec = 11, 12, 13
     out["GET_COSTMAP_RESPONSE"] = GetCostmap.Response(
         map=Costmap(header=header(), metadata=meta, data=[0, 1, 252, 253, 254, 255]))
+    out["CLEAR_ENTIRE_COSTMAP_REQUEST"] = ClearEntireCostmap.Request()
+    out["CLEAR_ENTIRE_COSTMAP_RESPONSE"] = ClearEntireCostmap.Response()
+    out["CLEAR_COSTMAP_AROUND_POSE_REQUEST"] = ClearCostmapAroundPose.Request(
+        pose=pose_stamped(1.0, 2.0), reset_distance=3.5)
     g = Wait.Goal()
     g.time.sec, g.time.nanosec = 5, 60
     out["WAIT_GOAL"] = g

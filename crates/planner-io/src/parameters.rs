@@ -61,6 +61,8 @@ pub struct NodeParams {
     pub recovery: RecoveryParams,
     /// The spin, back-up, drive-on-heading and wait behaviours (as Nav2's behavior server).
     pub behavior_server: BehaviorServerParams,
+    /// The local costmap's window (`local_costmap/get_costmap`).
+    pub local_costmap: LocalCostmapParams,
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
     pub enable_stamped_cmd_vel: bool,
@@ -262,6 +264,27 @@ impl Default for BehaviorServerParams {
     }
 }
 
+/// The local costmap a node standing alone (`follow_plan`) serves on
+/// `local_costmap/get_costmap`, as controller_server's local costmap: a rolling window of the
+/// node's own grid round the robot, the costs its follower and behaviours check against.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LocalCostmapParams {
+    /// The window's width (m, along the map's x). Nav2's nav2_params.yaml: 3.
+    pub width: f64,
+    /// The window's height (m, along the map's y). Nav2's nav2_params.yaml: 3.
+    pub height: f64,
+}
+
+impl Default for LocalCostmapParams {
+    fn default() -> Self {
+        Self {
+            width: 3.0,
+            height: 3.0,
+        }
+    }
+}
+
 impl Default for NodeParams {
     fn default() -> Self {
         Self {
@@ -278,6 +301,7 @@ impl Default for NodeParams {
             progress_checker: ProgressParams::default(),
             recovery: RecoveryParams::default(),
             behavior_server: BehaviorServerParams::default(),
+            local_costmap: LocalCostmapParams::default(),
             enable_stamped_cmd_vel: false,
             robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
@@ -375,6 +399,10 @@ impl NodeParams {
             || b.cmd_vel_teleop.is_empty()
         {
             return Err("behavior_server: simulate_ahead_time within 0..=10 s, projection_time within 0.1..=10 s, simulation_time_step at least 0.01 s and below projection_time, cmd_vel_teleop a topic".into());
+        }
+        let local = &self.local_costmap;
+        if !within(local.width, 0.1, 100.0) || !within(local.height, 0.1, 100.0) {
+            return Err("local_costmap: width and height within 0.1..=100 m".into());
         }
         for (key, topic) in [
             ("keepout_mask_topic", &self.keepout_mask_topic),
@@ -974,6 +1002,16 @@ mod tests {
                 "ahead.yaml",
                 "    behavior_server: {simulate_ahead_time: -1.0}\n",
                 "behavior_server",
+            ),
+            (
+                "local.yaml",
+                "    local_costmap: {width: 0.0}\n",
+                "local_costmap",
+            ),
+            (
+                "local_wide.yaml",
+                "    local_costmap: {height: 1.0e9}\n",
+                "local_costmap",
             ),
             (
                 "teleop_step.yaml",

@@ -236,51 +236,6 @@ pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)
     invalid
 }
 
-/// `global_costmap/get_costmap` (nav2_msgs/srv/GetCostmap), as the global costmap serves it to
-/// nav2_simple_commander's `getGlobalCostmap()`: the grid the planners weigh, each cell's cost on
-/// costmap_2d's scale (an empty costmap before any map, with a warning).
-pub async fn serve_get_costmap(
-    s: Arc<Shared>,
-    o: Outputs,
-    server: ros2_client::Server<
-        patrol_msgs::nav2_msgs::GetCostmapRequest,
-        patrol_msgs::nav2_msgs::GetCostmapResponse,
-    >,
-) {
-    use patrol_msgs::nav2_msgs::GetCostmapResponse;
-    loop {
-        let Ok((id, _request)) = server.async_receive_request().await else {
-            continue;
-        };
-        // One pass over the map, as the costmap publisher makes its message: off the async
-        // threads on a map of millions of cells.
-        let (shared, header) = (s.clone(), o.header(&s));
-        let costmap = tokio::task::spawn_blocking(move || {
-            let map = shared.current_map()?;
-            let (frame, stamp) = (&header.frame_id, header.stamp);
-            Some(crate::convert::costmap_costs(
-                map.map().info(),
-                &map.grid,
-                |i| map.is_unknown(i),
-                frame,
-                stamp,
-            ))
-        })
-        .await
-        .unwrap_or_default();
-        let response = match costmap {
-            Some(map) => GetCostmapResponse { map },
-            None => {
-                warn!("get_costmap: no map yet");
-                GetCostmapResponse::default()
-            }
-        };
-        if let Err(e) = server.async_send_response(id, response).await {
-            warn!("get_costmap response: {e:?}");
-        }
-    }
-}
-
 /// `is_path_valid` (nav2_msgs/srv/IsPathValid): the path against the current map and the
 /// robot's inflation. A path in another frame, or asked of a node that is not active or has no
 /// map, is answered invalid (with no indices) and the reason logged.

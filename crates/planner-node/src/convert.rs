@@ -176,12 +176,74 @@ pub fn costmap_costs(
     frame: &str,
     stamp: Time,
 ) -> Costmap {
-    let data = grid
-        .costs()
-        .iter()
-        .enumerate()
-        .map(|(i, &cost)| if unknown(i) { NO_INFORMATION } else { cost })
+    let data = (0..grid.costs().len())
+        .map(|i| cost_of(grid, &unknown, i))
         .collect();
+    costmap(info, frame, stamp, data)
+}
+
+/// The most cells a side of [`costmap_window`] holds: 4096 x 4096 cells (16 MB) however small
+/// the map's cells, so a wide window on a fine map cannot exhaust memory.
+pub const MAX_WINDOW_CELLS: i64 = 4096;
+
+/// The part of the planning grid a rolling-window costmap of `width` x `height` metres around
+/// `centre` holds, as costmap_2d's local costmap keeps one round the robot: the window's cells
+/// are the grid's (its origin on a grid cell's corner, `centre` in its middle cell), each
+/// cell's cost as [`costmap_costs`] gives it, NO_INFORMATION off the map. A side has
+/// `size / resolution` cells, rounded, 1 to [`MAX_WINDOW_CELLS`].
+#[allow(clippy::too_many_arguments)]
+pub fn costmap_window(
+    info: &MapInfo,
+    grid: &PlanningGrid,
+    unknown: impl Fn(usize) -> bool,
+    centre: Point2,
+    (width, height): (f64, f64),
+    frame: &str,
+    stamp: Time,
+) -> Costmap {
+    let cells =
+        |metres: f64| ((metres / info.resolution).round() as i64).clamp(1, MAX_WINDOW_CELLS);
+    let (nx, ny) = (cells(width), cells(height));
+    let g = info.world_to_grid(centre);
+    // A non-finite centre casts to 0: a window at the map's corner, never a panic.
+    let x0 = (g.x - nx as f64 / 2.0).floor() as i64;
+    let y0 = (g.y - ny as f64 / 2.0).floor() as i64;
+    let (w, h) = (i64::from(info.width), i64::from(info.height));
+    let mut data = Vec::with_capacity((nx * ny) as usize);
+    for y in y0..y0 + ny {
+        for x in x0..x0 + nx {
+            data.push(if (0..w).contains(&x) && (0..h).contains(&y) {
+                cost_of(grid, &unknown, (y * w + x) as usize)
+            } else {
+                NO_INFORMATION
+            });
+        }
+    }
+    let corner = info.grid_to_world(Point2::new(x0 as f64, y0 as f64));
+    let window = MapInfo {
+        width: nx as u32,
+        height: ny as u32,
+        resolution: info.resolution,
+        origin: Pose2 {
+            x: corner.x,
+            y: corner.y,
+            yaw: info.origin.yaw,
+        },
+    };
+    costmap(&window, frame, stamp, data)
+}
+
+/// Cell `i`'s cost on costmap_2d's scale, NO_INFORMATION where nothing is known of it.
+fn cost_of(grid: &PlanningGrid, unknown: impl Fn(usize) -> bool, i: usize) -> u8 {
+    if unknown(i) {
+        NO_INFORMATION
+    } else {
+        grid.costs()[i]
+    }
+}
+
+/// A nav2_msgs/Costmap of `data` (row-major) over the cells `info` describes, layer `master`.
+fn costmap(info: &MapInfo, frame: &str, stamp: Time, data: Vec<u8>) -> Costmap {
     let grid = grid_msg(info, frame, stamp, Vec::new());
     Costmap {
         header: grid.header,
@@ -658,6 +720,101 @@ mod tests {
             let c = planner_core::geometry::Cell::new(x, 0);
             assert_eq!(back.is_free(c), grid.is_free(c), "cell {x}");
         }
+    }
+
+    /// The local costmap's window holds the grid's own costs round the robot, cell for cell,
+    /// its origin on a grid corner in the map's frame (rotated maps too), NO_INFORMATION where
+    /// it reaches past the map; its size is bounded however fine the map.
+    #[test]
+    fn the_local_window_is_the_grid_round_the_robot() {
+        use planner_core::grid::InflationConfig;
+        for yaw in [0.0, 0.7] {
+            // 20 x 10 cells of 0.1 m, an obstacle at cell (12, 5), one unknown cell (3, 2).
+            let info = MapInfo {
+                width: 20,
+                height: 10,
+                resolution: 0.1,
+                origin: Pose2::new(1.0, -2.0, yaw),
+            };
+            let mut data = vec![0i8; 200];
+            data[5 * 20 + 12] = 100;
+            data[2 * 20 + 3] = -1;
+            let map = GridMap::new(info, data).unwrap();
+            let cfg = InflationConfig {
+                allow_unknown: true,
+                ..InflationConfig::default()
+            };
+            let grid = PlanningGrid::new(&map, &cfg).unwrap();
+            let unknown = |i: usize| map.data()[i] == UNKNOWN;
+            let whole = costmap_costs(map.info(), &grid, unknown, "map", Time::default());
+            // The robot in cell (10, 5), a 0.6 x 0.4 m window: cells 7..13 x 3..7.
+            let robot = info.grid_to_world(Point2::new(10.5, 5.5));
+            let w = costmap_window(
+                map.info(),
+                &grid,
+                unknown,
+                robot,
+                (0.6, 0.4),
+                "map",
+                Time::default(),
+            );
+            assert_eq!((w.metadata.size_x, w.metadata.size_y), (6, 4));
+            for j in 0..4 {
+                for i in 0..6 {
+                    let (x, y) = (7 + i, 3 + j);
+                    assert_eq!(w.data[j * 6 + i], whole.data[y * 20 + x], "({x}, {y})");
+                }
+            }
+            assert_eq!(w.data[2 * 6 + 5], 254, "the obstacle at (12, 5)");
+            let corner = info.grid_to_world(Point2::new(7.0, 3.0));
+            let o = &w.metadata.origin;
+            assert!(
+                (o.position.x - corner.x).abs() < 1e-9 && (o.position.y - corner.y).abs() < 1e-9
+            );
+            assert!((yaw_from_quaternion(&o.orientation).unwrap() - yaw).abs() < 1e-9);
+            // At the map's corner: the cells off the map are unknown, the unknown cell too.
+            let robot = info.grid_to_world(Point2::new(0.5, 0.5));
+            let w = costmap_window(
+                map.info(),
+                &grid,
+                unknown,
+                robot,
+                (0.8, 0.6),
+                "map",
+                Time::default(),
+            );
+            assert_eq!((w.metadata.size_x, w.metadata.size_y), (8, 6));
+            // Window cell (i, j) is map cell (i - 4, j - 3).
+            assert!(w.data[..3 * 8].iter().all(|&c| c == NO_INFORMATION));
+            assert!((0..6).all(|j| w.data[j * 8] == NO_INFORMATION));
+            assert_eq!(w.data[5 * 8 + 7], NO_INFORMATION, "map cell (3, 2) unknown");
+            assert_eq!(w.data[4 * 8 + 7], whole.data[20 + 3], "map cell (3, 1)");
+            assert_ne!(w.data[4 * 8 + 7], NO_INFORMATION);
+        }
+        // A 100 m window on 1 cm cells is cut to MAX_WINDOW_CELLS a side; a NaN centre is the
+        // corner, not a panic.
+        let info = MapInfo {
+            width: 4,
+            height: 4,
+            resolution: 0.01,
+            origin: Pose2::new(0.0, 0.0, 0.0),
+        };
+        let map = GridMap::new(info, vec![0; 16]).unwrap();
+        let grid =
+            PlanningGrid::new(&map, &planner_core::grid::InflationConfig::default()).unwrap();
+        let nan = Point2::new(f64::NAN, f64::NAN);
+        let w = costmap_window(
+            &info,
+            &grid,
+            |_| false,
+            nan,
+            (100.0, 0.0),
+            "map",
+            Time::default(),
+        );
+        assert_eq!(w.metadata.size_x as i64, MAX_WINDOW_CELLS);
+        assert_eq!(w.metadata.size_y, 1);
+        assert_eq!(w.data.len(), MAX_WINDOW_CELLS as usize);
     }
 
     /// A 100 m path at a resolution of 1e-6 m (a map replaced mid-plan, a corrupted one) is

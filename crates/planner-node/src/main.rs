@@ -11,6 +11,7 @@ mod assisted_teleop;
 mod behaviors;
 mod convert;
 mod costmap_filters;
+mod costmaps;
 mod drive;
 mod follow;
 mod follow_path;

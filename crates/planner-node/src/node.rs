@@ -56,11 +56,11 @@ use patrol_msgs::nav2_msgs::{
     AssistedTeleopFeedback, AssistedTeleopGoal, BackUpFeedback, BackUpGoal, BehaviorResult,
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
     DriveOnHeadingGoal, EmptyFeedback, FollowPathFeedback, FollowPathGoal, FollowPathResult,
-    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, GetCostmapRequest,
-    GetCostmapResponse, IsPathValidRequest, IsPathValidResponse, LoadMapRequest, LoadMapResponse,
-    NavigateThroughPosesFeedback, NavigateThroughPosesGoal, NavigateThroughPosesResult,
-    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback,
-    SpinGoal, WaitFeedback, WaitGoal,
+    FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
+    IsPathValidResponse, LoadMapRequest, LoadMapResponse, NavigateThroughPosesFeedback,
+    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
+    NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback, SpinGoal, WaitFeedback,
+    WaitGoal,
 };
 use patrol_msgs::nav_msgs::{
     GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
@@ -131,8 +131,7 @@ where
 /// (navigate.rs), waypoint_follower's `follow_waypoints` (patrol.rs) and behavior_server's
 /// `spin`, `backup`, `drive_on_heading` and `wait` (behaviors.rs) and `assisted_teleop`
 /// (assisted_teleop.rs), controller_server's `follow_path` (follow_path.rs), and the global
-/// costmap's
-/// `global_costmap/get_costmap` (actions.rs). A node standing in for planner_server in a whole
+/// and local costmaps' services (costmaps.rs). A node standing in for planner_server in a whole
 /// Nav2 stack (`follow_plan: false`, as the README sets it up) serves none of them, so none of
 /// that stack's requests (a behaviour tree's Spin, a user's goToPose) can reach this node
 /// instead of its own servers.
@@ -168,14 +167,6 @@ fn serve_standalone(
         nav2_action_server::<SpinGoal, BehaviorResult, SpinFeedback>(node, naming, "spin", "Spin")?;
     let backup = nav2_action_server::<BackUpGoal, BehaviorResult, BackUpFeedback>(
         node, naming, "backup", "BackUp",
-    )?;
-    // The global costmap's GetCostmap, which nav2_simple_commander's getGlobalCostmap() calls.
-    let get_costmap = node.create_server::<GetCostmapRequest, GetCostmapResponse>(
-        ServiceMapping::Enhanced,
-        &naming.name("global_costmap/get_costmap")?,
-        &ServiceTypeName::new("nav2_msgs", "GetCostmap"),
-        ros_edge::reliable(10, Durability::Volatile),
-        ros_edge::reliable(10, Durability::Volatile),
     )?;
     let drive_on_heading = nav2_action_server::<DriveOnHeadingGoal, BehaviorResult, BackUpFeedback>(
         node,
@@ -262,11 +253,7 @@ fn serve_standalone(
         out.clone(),
         navigate_through_poses,
     ));
-    tasks.spawn(actions::serve_get_costmap(
-        shared.clone(),
-        out.clone(),
-        get_costmap,
-    ));
+    crate::costmaps::serve(node, naming, tasks, shared, out)?;
     tasks.spawn(crate::behaviors::serve_all(
         shared.clone(),
         out.clone(),
