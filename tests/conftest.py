@@ -1,4 +1,4 @@
-"""Fixtures for the rclpy integration tests: the real patrol_planner release binary on its own
+"""Fixtures for the rclpy integration tests: the real patrol_planner binary on its own
 ROS_DOMAIN_ID, and an rclpy node that talks to it the way a ROS 2 user's stack would. Tests wait
 for discovery and answers, never for fixed sleeps."""
 import contextlib
@@ -20,7 +20,11 @@ from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path as PathMsg
 
 ROOT = Path(__file__).resolve().parent.parent
-BINARY = ROOT / "target" / "release" / "patrol_planner"
+# The binaries under test: the release build (`cargo build --release`), or the directory
+# PATROL_BIN_DIR names (scripts/test-all: target/debug, the optimised builds `cargo test` made
+# with debug assertions and overflow checks on).
+BIN_DIR = Path(os.environ.get("PATROL_BIN_DIR") or ROOT / "target" / "release")
+BINARY = BIN_DIR / "patrol_planner"
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
@@ -42,13 +46,20 @@ def _domains_in_use():
 @functools.lru_cache(maxsize=None)
 def domain_id(offset=0):
     """One domain per test run (0..232 are valid; stay clear of 0, the default); a test module
-    that starts binaries of its own uses `offset` to keep them apart from the session node.
+    that starts binaries of its own uses `offset` to keep them apart from the `ros` fixture's node.
     TEST_DOMAIN_BASE and TEST_DOMAIN_SPAN (default 100 and 100: domains 100-199) give a pytest
     run that goes beside another one a range of its own (scripts/test-all runs test_patrol.py
-    on 200-229). A domain another process on this machine already uses (a soak, a second test
+    on 200-229); pytest-xdist's workers share the range out (two: 100-149 and 150-199). A
+    domain another process on this machine already uses (a soak, a second test
     run) is skipped; the answer is kept for the run, so a module asking again gets the same."""
     base = int(os.environ.get("TEST_DOMAIN_BASE", "100"))
     span = int(os.environ.get("TEST_DOMAIN_SPAN", "100"))
+    # pytest-xdist's workers (gw0, gw1, ...) split the range, each its own part of it.
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if worker.startswith("gw") and workers > 1:
+        span //= workers
+        base += int(worker[2:]) * span
     used = _domains_in_use()
     for k in range(span):
         d = base + (os.getpid() + offset + k) % span
@@ -61,7 +72,7 @@ class Ros:
     """An rclpy node with the subscriptions, publishers and clients the tests use."""
 
     def __init__(self, domain, context=None):
-        # The session's node uses rclpy's default context; a test that needs a second domain
+        # The `ros` fixture's node uses rclpy's default context; a test that needs a second domain
         # passes its own context.
         self.context = context
         if context is None:
@@ -168,13 +179,13 @@ def call_service(ros, srv_type, name, request, timeout=20):
         ros.node.destroy_client(client)
 
 
-BRIDGE = ROOT / "target" / "release" / "chassis_bridge"
+BRIDGE = BIN_DIR / "chassis_bridge"
 
 
 def start_binary(binary, domain, params_file, log_name, rust_log, ros_args=()):
-    """A real release binary on `domain`, its output in target/`log_name`; `ros_args` go after
+    """A real binary (BIN_DIR) on `domain`, its output in target/`log_name`; `ros_args` go after
     `--ros-args` (remaps such as `-r __node:=planner_server`)."""
-    assert binary.exists(), f"{binary} is missing: build it with `cargo build --release`"
+    assert binary.exists(), f"{binary} is missing: build it with `cargo build --release` (or set PATROL_BIN_DIR)"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RUST_LOG=rust_log)
     log = open(ROOT / "target" / log_name, "w")
     args = [str(binary), "--params-file", str(params_file)]
@@ -237,7 +248,10 @@ def driving_rig(offset, node_params, bridge_params, name):
             stop_binary(node)
 
 
-@pytest.fixture(scope="session")
+# A node of its own for each test file that uses it, so that no file depends on what another did
+# to it before (the test files run in any order on pytest-xdist's two workers: scripts/test-all),
+# and test_node's first tests see the node as it starts (its bundled map, no start pose yet).
+@pytest.fixture(scope="module")
 def ros():
     domain = domain_id()
     proc = start_node(domain, ROOT / "config" / "planner.yaml", "patrol_planner_test.log")

@@ -17,7 +17,7 @@ from test_services import get_plan
 
 @pytest.fixture(scope="module")
 def bare(tmp_path_factory):
-    domain = domain_id(50)  # away from the session node's
+    domain = domain_id(55)  # away from the `ros` fixture's node
     params = tmp_path_factory.mktemp("no_map") / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n    follow_plan: false\n')
     proc = start_node(domain, params, "patrol_planner_no_map_test.log")

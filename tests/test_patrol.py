@@ -24,7 +24,7 @@ from rclpy.action import ActionClient
 
 from nav2_msgs.action import FollowWaypoints
 
-from conftest import ROOT, driving_rig, stamped
+from conftest import BIN_DIR, ROOT, driving_rig, stamped
 
 MAP = ROOT / "config" / "maps" / "datacenter_100.yaml"
 ROUTE = yaml.safe_load((ROOT / "config" / "routes" / "datacenter_patrol.yaml").read_text())
@@ -35,7 +35,7 @@ BLOCKED = len(WAYPOINTS) - 1
 REACHABLE = [i for i in range(len(WAYPOINTS)) if i != BLOCKED]
 PAUSE = 1.0  # waypoint_pause_duration (s)
 START = (0.1, 0.1, 0.0)  # the simulated car's initial pose (config/chassis.yaml)
-CLI = ROOT / "target" / "release" / "patrol-plan"
+CLI = BIN_DIR / "patrol-plan"
 
 
 def route(tmp_path, name, start, indices):

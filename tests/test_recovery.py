@@ -93,7 +93,7 @@ class Robot:
 
 @pytest.fixture
 def rig(tmp_path):
-    domain = domain_id(70)  # away from the session node's and the other modules'
+    domain = domain_id(70)  # away from the `ros` fixture's node and the other modules'
     params = tmp_path / "planner.yaml"
     params.write_text(
         "patrol_planner:\n  ros__parameters:\n"

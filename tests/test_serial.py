@@ -84,7 +84,7 @@ def rig(tmp_path_factory):
         "chassis_bridge:\n  ros__parameters:\n    backend: serial\n    initial_pose: [0.0, 0.0, 0.0]\n"
         f"    serial:\n      device: {device}\n"
     )
-    domain = domain_id(25)  # the bridge alone, away from the session node
+    domain = domain_id(25)  # the bridge alone, away from the `ros` fixture's node
     board = FakeBoard(master)
     board.start()
     proc = start_bridge(domain, params, "chassis_bridge_serial_test.log", "info")

@@ -28,7 +28,7 @@ def room():
 
 @pytest.fixture
 def driving(tmp_path):
-    domain = domain_id(60)  # away from the session node's and the other modules'
+    domain = domain_id(60)  # away from the `ros` fixture's node and the other modules'
     params = tmp_path / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n')
     proc = start_node(domain, params, "patrol_planner_stopping_test.log")
