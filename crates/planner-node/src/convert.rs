@@ -747,17 +747,21 @@ mod tests {
             let grid = PlanningGrid::new(&map, &cfg).unwrap();
             let unknown = |i: usize| map.data()[i] == UNKNOWN;
             let whole = costmap_costs(map.info(), &grid, unknown, "map", Time::default());
+            // The window of `size` metres round the robot in the middle of grid cell `cell`.
+            let window = |cell: (f64, f64), size| {
+                let robot = info.grid_to_world(Point2::new(cell.0 + 0.5, cell.1 + 0.5));
+                costmap_window(
+                    map.info(),
+                    &grid,
+                    unknown,
+                    robot,
+                    size,
+                    "map",
+                    Time::default(),
+                )
+            };
             // The robot in cell (10, 5), a 0.6 x 0.4 m window: cells 7..13 x 3..7.
-            let robot = info.grid_to_world(Point2::new(10.5, 5.5));
-            let w = costmap_window(
-                map.info(),
-                &grid,
-                unknown,
-                robot,
-                (0.6, 0.4),
-                "map",
-                Time::default(),
-            );
+            let w = window((10.0, 5.0), (0.6, 0.4));
             assert_eq!((w.metadata.size_x, w.metadata.size_y), (6, 4));
             for j in 0..4 {
                 for i in 0..6 {
@@ -773,16 +777,7 @@ mod tests {
             );
             assert!((yaw_from_quaternion(&o.orientation).unwrap() - yaw).abs() < 1e-9);
             // At the map's corner: the cells off the map are unknown, the unknown cell too.
-            let robot = info.grid_to_world(Point2::new(0.5, 0.5));
-            let w = costmap_window(
-                map.info(),
-                &grid,
-                unknown,
-                robot,
-                (0.8, 0.6),
-                "map",
-                Time::default(),
-            );
+            let w = window((0.0, 0.0), (0.8, 0.6));
             assert_eq!((w.metadata.size_x, w.metadata.size_y), (8, 6));
             // Window cell (i, j) is map cell (i - 4, j - 3).
             assert!(w.data[..3 * 8].iter().all(|&c| c == NO_INFORMATION));
