@@ -241,16 +241,14 @@ pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)
 /// map, is answered invalid (with no indices) and the reason logged.
 pub async fn serve_is_path_valid(
     s: Arc<Shared>,
-    server: ros2_client::Server<
+    server: ros_edge::service::ServiceServer<
         patrol_msgs::nav2_msgs::IsPathValidRequest,
         patrol_msgs::nav2_msgs::IsPathValidResponse,
     >,
 ) {
     use patrol_msgs::nav2_msgs::IsPathValidResponse;
     loop {
-        let Ok((id, req)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, req) = server.next_request().await;
         let frame = crate::convert::frame_name(&req.path.header.frame_id);
         let refusal = if let Some(f) = s.refusal() {
             Some(f.message)
@@ -286,9 +284,7 @@ pub async fn serve_is_path_valid(
                 }
             }
         };
-        if let Err(e) = server.async_send_response(id, response).await {
-            warn!("is_path_valid response: {e:?}");
-        }
+        server.respond(id, response).await;
     }
 }
 

@@ -31,9 +31,9 @@ use patrol_msgs::nav2_msgs::{
     GetCostmapResponse,
 };
 use planner_core::geometry::Point2;
-use ros2_client::qos::Durability;
-use ros2_client::{Message, Server, ServiceMapping, ServiceTypeName};
+use ros2_client::Message;
 use ros_edge::naming::Naming;
+use ros_edge::service::ServiceServer;
 use std::sync::Arc;
 
 /// Serves both costmaps' services (the table above) on `node`, each on a task of `tasks`.
@@ -51,12 +51,8 @@ pub fn serve(
         &[Which::Local]
     };
     for which in [Which::Global, Which::Local] {
-        let server = nav2_service(
-            node,
-            naming,
-            &format!("{}/get_costmap", which.name()),
-            "GetCostmap",
-        )?;
+        let name = format!("{}/get_costmap", which.name());
+        let server = ServiceServer::new(node, naming, &name, "nav2_msgs", "GetCostmap")?;
         tasks.spawn(serve_get_costmap(
             shared.clone(),
             out.clone(),
@@ -73,23 +69,6 @@ pub fn serve(
     Ok(())
 }
 
-/// A server of the nav2_msgs service `type_name` on `name` (the node's namespace and remappings
-/// applied), reliable and volatile as rclcpp's services.
-fn nav2_service<Q: Message + Clone + 'static, P: Message + Clone + 'static>(
-    node: &mut ros2_client::Node,
-    naming: &Naming,
-    name: &str,
-    type_name: &str,
-) -> anyhow::Result<Server<Q, P>> {
-    Ok(node.create_server::<Q, P>(
-        ServiceMapping::Enhanced,
-        &naming.name(name)?,
-        &ServiceTypeName::new("nav2_msgs", type_name),
-        ros_edge::reliable(10, Durability::Volatile),
-        ros_edge::reliable(10, Durability::Volatile),
-    )?)
-}
-
 /// Costmap `which`'s clearing service for requests `R`, served on a task of `tasks`.
 fn clear_service<R: ClearRequest>(
     node: &mut ros2_client::Node,
@@ -98,8 +77,8 @@ fn clear_service<R: ClearRequest>(
     which: Which,
 ) -> anyhow::Result<()> {
     let name = format!("{0}/{1}{0}", which.name(), R::PREFIX);
-    let server = nav2_service::<R, ClearCostmapResponse>(node, naming, &name, R::TYPE)?;
-    tasks.spawn(serve_clear(which, name, server));
+    let server = ServiceServer::<R, _>::new(node, naming, &name, "nav2_msgs", R::TYPE)?;
+    tasks.spawn(serve_clear(which, server));
     Ok(())
 }
 
@@ -130,12 +109,10 @@ pub async fn serve_get_costmap(
     s: Arc<Shared>,
     o: Outputs,
     which: Which,
-    server: Server<GetCostmapRequest, GetCostmapResponse>,
+    server: ServiceServer<GetCostmapRequest, GetCostmapResponse>,
 ) {
     loop {
-        let Ok((id, _request)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, _request) = server.next_request().await;
         let robot = match which {
             Which::Global => None,
             Which::Local => s.robot_pose().await.map(|p| Point2::new(p.x, p.y)),
@@ -176,9 +153,7 @@ pub async fn serve_get_costmap(
                 GetCostmapResponse::default()
             }
         };
-        if let Err(e) = server.async_send_response(id, response).await {
-            warn!("{}/get_costmap response: {e:?}", which.name());
-        }
+        server.respond(id, response).await;
     }
 }
 
@@ -232,28 +207,20 @@ impl ClearRequest for ClearCostmapAroundPoseRequest {
 }
 
 /// A clearing service of costmap `which` (see the module's comment): answered at once, the
-/// grid left as it is (nothing in it is clearable), the request and why logged. `service` is
-/// the service's own name, for the log.
+/// grid left as it is (nothing in it is clearable), the request and why logged.
 pub async fn serve_clear<R: ClearRequest>(
     which: Which,
-    service: String,
-    server: Server<R, ClearCostmapResponse>,
+    server: ServiceServer<R, ClearCostmapResponse>,
 ) {
     loop {
-        let Ok((id, request)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, request) = server.next_request().await;
         info!(
-            "{service}: asked to {}: nothing to clear in the {} (the node's costmap is the map, \
+            "{}: asked to {}: nothing to clear in the {} (the node's costmap is the map, \
              its inflation and the keepout filter, none of them a layer costmap_2d clears)",
+            server.name(),
             request.asked(),
             which.name()
         );
-        if let Err(e) = server
-            .async_send_response(id, ClearCostmapResponse::default())
-            .await
-        {
-            warn!("{service} response: {e:?}");
-        }
+        server.respond(id, ClearCostmapResponse::default()).await;
     }
 }

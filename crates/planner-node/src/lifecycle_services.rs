@@ -9,7 +9,8 @@ use crate::lifecycle::{State, Transition};
 use crate::state::Shared;
 use log::{info, warn};
 use patrol_msgs::lifecycle_msgs::*;
-use ros2_client::{Publisher, Server};
+use ros2_client::Publisher;
+use ros_edge::service::ServiceServer;
 use std::sync::Arc;
 
 /// ChangeState: applies an allowed transition and reports it on `transition_event`; a
@@ -17,13 +18,11 @@ use std::sync::Arc;
 /// refuses it. Deactivating stops the robot: the follower brakes to a stop.
 pub async fn change_state(
     s: Arc<Shared>,
-    server: Server<ChangeStateRequest, ChangeStateResponse>,
+    server: ServiceServer<ChangeStateRequest, ChangeStateResponse>,
     events: Publisher<TransitionEvent>,
 ) {
     loop {
-        let Ok((id, req)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, req) = server.next_request().await;
         let (success, event) = {
             let mut state = s.lifecycle.write().expect("lock");
             let current = *state;
@@ -72,44 +71,27 @@ pub async fn change_state(
                 warn!("transition_event: {e:?}");
             }
         }
-        if let Err(e) = server
-            .async_send_response(id, ChangeStateResponse { success })
-            .await
-        {
-            warn!("change_state response: {e:?}");
-        }
+        server.respond(id, ChangeStateResponse { success }).await;
     }
 }
 
 /// GetState.
-pub async fn get_state(s: Arc<Shared>, server: Server<EmptyRequest, GetStateResponse>) {
+pub async fn get_state(s: Arc<Shared>, server: ServiceServer<EmptyRequest, GetStateResponse>) {
     loop {
-        let Ok((id, _)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, _) = server.next_request().await;
         let current_state = s.lifecycle.read().expect("lock").msg();
-        if let Err(e) = server
-            .async_send_response(id, GetStateResponse { current_state })
-            .await
-        {
-            warn!("get_state response: {e:?}");
-        }
+        server.respond(id, GetStateResponse { current_state }).await;
     }
 }
 
 /// GetAvailableStates: the four primary states.
-pub async fn get_available_states(server: Server<EmptyRequest, GetAvailableStatesResponse>) {
+pub async fn get_available_states(server: ServiceServer<EmptyRequest, GetAvailableStatesResponse>) {
     loop {
-        let Ok((id, _)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, _) = server.next_request().await;
         let available_states = State::all().map(State::msg).to_vec();
-        if let Err(e) = server
-            .async_send_response(id, GetAvailableStatesResponse { available_states })
-            .await
-        {
-            warn!("get_available_states response: {e:?}");
-        }
+        server
+            .respond(id, GetAvailableStatesResponse { available_states })
+            .await;
     }
 }
 
@@ -117,13 +99,11 @@ pub async fn get_available_states(server: Server<EmptyRequest, GetAvailableState
 /// GetTransitionGraph (from every state).
 pub async fn get_transitions(
     s: Arc<Shared>,
-    server: Server<EmptyRequest, GetAvailableTransitionsResponse>,
+    server: ServiceServer<EmptyRequest, GetAvailableTransitionsResponse>,
     whole_graph: bool,
 ) {
     loop {
-        let Ok((id, _)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, _) = server.next_request().await;
         let available_transitions = if whole_graph {
             State::all()
                 .iter()
@@ -132,17 +112,14 @@ pub async fn get_transitions(
         } else {
             s.lifecycle.read().expect("lock").descriptions()
         };
-        if let Err(e) = server
-            .async_send_response(
+        server
+            .respond(
                 id,
                 GetAvailableTransitionsResponse {
                     available_transitions,
                 },
             )
-            .await
-        {
-            warn!("get_available_transitions response: {e:?}");
-        }
+            .await;
     }
 }
 

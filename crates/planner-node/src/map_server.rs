@@ -22,7 +22,8 @@ use log::{info, warn};
 use patrol_msgs::nav2_msgs::{LoadMapRequest, LoadMapResponse};
 use patrol_msgs::nav_msgs::{GetMapRequest, GetMapResponse, OccupancyGrid};
 use planner_io::LoadError;
-use ros2_client::{Publisher, Server};
+use ros2_client::Publisher;
+use ros_edge::service::ServiceServer;
 use std::path::Path;
 use std::sync::{Arc, RwLock};
 use tokio::sync::watch;
@@ -154,13 +155,11 @@ pub async fn load(
 pub async fn serve_load_map(
     s: Arc<Shared>,
     map_server: Arc<MapServer>,
-    server: Server<LoadMapRequest, LoadMapResponse>,
+    server: ServiceServer<LoadMapRequest, LoadMapResponse>,
     slot: watch::Sender<GoalSlot>,
 ) {
     loop {
-        let Ok((id, request)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, request) = server.next_request().await;
         let home = std::env::var("HOME").ok();
         let answer = match (s.refusal(), file_of(&request.map_url, home.as_deref())) {
             (Some(f), _) => Err(Refused {
@@ -189,9 +188,7 @@ pub async fn serve_load_map(
                 }
             }
         };
-        if let Err(e) = server.async_send_response(id, response).await {
-            warn!("load_map response: {e:?}");
-        }
+        server.respond(id, response).await;
     }
 }
 
@@ -202,12 +199,10 @@ pub async fn serve_load_map(
 pub async fn serve_get_map(
     s: Arc<Shared>,
     map_server: Arc<MapServer>,
-    server: Server<GetMapRequest, GetMapResponse>,
+    server: ServiceServer<GetMapRequest, GetMapResponse>,
 ) {
     loop {
-        let Ok((id, _)) = server.async_receive_request().await else {
-            continue;
-        };
+        let (id, _) = server.next_request().await;
         let map = match (s.refusal(), map_server.served()) {
             (Some(f), _) => {
                 warn!("map_server/map: answered with an empty map: {}", f.message);
@@ -219,9 +214,7 @@ pub async fn serve_get_map(
             }
             (None, Some(map)) => map,
         };
-        if let Err(e) = server.async_send_response(id, GetMapResponse { map }).await {
-            warn!("map_server/map response: {e:?}");
-        }
+        server.respond(id, GetMapResponse { map }).await;
     }
 }
 

@@ -47,24 +47,18 @@ use patrol_msgs::diagnostic_msgs::DiagnosticArray;
 use patrol_msgs::geometry_msgs::{
     PoseStamped, PoseWithCovarianceStamped, Twist, TwistStamped, Vector3,
 };
-use patrol_msgs::lifecycle_msgs::{
-    ChangeStateRequest, ChangeStateResponse, EmptyRequest, GetAvailableStatesResponse,
-    GetAvailableTransitionsResponse, GetStateResponse, TransitionEvent,
-};
+use patrol_msgs::lifecycle_msgs::TransitionEvent;
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{
     AssistedTeleopFeedback, AssistedTeleopGoal, BackUpFeedback, BackUpGoal, BehaviorResult,
     ComputePathResult, ComputePathThroughPosesGoal, ComputePathToPoseGoal, CostmapFilterInfo,
     DriveOnHeadingGoal, EmptyFeedback, FollowPathFeedback, FollowPathGoal, FollowPathResult,
     FollowWaypointsFeedback, FollowWaypointsGoal, FollowWaypointsResult, IsPathValidRequest,
-    IsPathValidResponse, LoadMapRequest, LoadMapResponse, NavigateThroughPosesFeedback,
-    NavigateThroughPosesGoal, NavigateThroughPosesResult, NavigateToPoseFeedback,
-    NavigateToPoseGoal, NavigateToPoseResult, SpeedLimit, SpinFeedback, SpinGoal, WaitFeedback,
-    WaitGoal,
+    IsPathValidResponse, NavigateThroughPosesFeedback, NavigateThroughPosesGoal,
+    NavigateThroughPosesResult, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult,
+    SpeedLimit, SpinFeedback, SpinGoal, WaitFeedback, WaitGoal,
 };
-use patrol_msgs::nav_msgs::{
-    GetMapRequest, GetMapResponse, GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path,
-};
+use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::rosgraph_msgs::Clock;
 use patrol_msgs::std_msgs::Empty;
 use patrol_msgs::tf2_msgs::TFMessage;
@@ -75,9 +69,10 @@ use ros2_client::action::{ActionServerQosPolicies, AsyncActionServer};
 use ros2_client::{
     qos::{Durability, History},
     ActionTypeName, MessageTypeName, NodeName, NodeOptions, ParameterValue, QosProfile,
-    ServiceMapping, ServiceTypeName,
+    ServiceMapping,
 };
 use ros_edge::naming::Naming;
+use ros_edge::service::ServiceServer;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
@@ -537,12 +532,14 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // never got an answer). Replies (a plan each, kilobytes) are kept until acknowledged.
     const REQUEST_QUEUE: usize = 1024;
     const REPLY_QUEUE: usize = 64;
-    let server = node.create_server::<GetPlanRequest, GetPlanResponse>(
-        ServiceMapping::Enhanced,
-        &naming.name("~/make_plan")?,
-        &ServiceTypeName::new("nav_msgs", "GetPlan"),
-        ros_edge::reliable(REQUEST_QUEUE, Durability::Volatile),
-        ros_edge::reliable(REPLY_QUEUE, Durability::Volatile),
+    let server = ServiceServer::<GetPlanRequest, GetPlanResponse>::with_queues(
+        &mut node,
+        &naming,
+        "~/make_plan",
+        "nav_msgs",
+        "GetPlan",
+        REQUEST_QUEUE,
+        REPLY_QUEUE,
     )?;
     // Nav2's planner-server interface (see actions.rs): two actions and is_path_valid.
     let to_pose = nav2_action_server::<ComputePathToPoseGoal, ComputePathResult, EmptyFeedback>(
@@ -558,56 +555,50 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             "compute_path_through_poses",
             "ComputePathThroughPoses",
         )?;
-    let is_path_valid = node.create_server::<IsPathValidRequest, IsPathValidResponse>(
-        ServiceMapping::Enhanced,
-        &naming.name("is_path_valid")?,
-        &ServiceTypeName::new("nav2_msgs", "IsPathValid"),
-        ros_edge::reliable(10, Durability::Volatile),
-        ros_edge::reliable(10, Durability::Volatile),
+    let is_path_valid = ServiceServer::<IsPathValidRequest, IsPathValidResponse>::new(
+        &mut node,
+        &naming,
+        "is_path_valid",
+        "nav2_msgs",
+        "IsPathValid",
     )?;
     // The managed-node interface Nav2's lifecycle_manager drives (see lifecycle.rs).
     let lifecycle_qos = ros_edge::reliable(10, Durability::Volatile);
-    macro_rules! lifecycle_server {
-        ($name:expr, $ty:expr, $req:ty, $resp:ty) => {
-            node.create_server::<$req, $resp>(
-                ServiceMapping::Enhanced,
-                &naming.name($name)?,
-                &ServiceTypeName::new("lifecycle_msgs", $ty),
-                lifecycle_qos.clone(),
-                lifecycle_qos.clone(),
-            )?
-        };
-    }
-    let change_state = lifecycle_server!(
+    const LIFECYCLE: &str = "lifecycle_msgs";
+    let change_state = ServiceServer::new(
+        &mut node,
+        &naming,
         "~/change_state",
+        LIFECYCLE,
         "ChangeState",
-        ChangeStateRequest,
-        ChangeStateResponse
-    );
-    let get_state = lifecycle_server!("~/get_state", "GetState", EmptyRequest, GetStateResponse);
-    let get_states = lifecycle_server!(
+    )?;
+    let get_state = ServiceServer::new(&mut node, &naming, "~/get_state", LIFECYCLE, "GetState")?;
+    let get_states = ServiceServer::new(
+        &mut node,
+        &naming,
         "~/get_available_states",
+        LIFECYCLE,
         "GetAvailableStates",
-        EmptyRequest,
-        GetAvailableStatesResponse
-    );
+    )?;
     let transition_servers = [
         (
-            lifecycle_server!(
+            ServiceServer::new(
+                &mut node,
+                &naming,
                 "~/get_available_transitions",
+                LIFECYCLE,
                 "GetAvailableTransitions",
-                EmptyRequest,
-                GetAvailableTransitionsResponse
-            ),
+            )?,
             false,
         ),
         (
-            lifecycle_server!(
+            ServiceServer::new(
+                &mut node,
+                &naming,
                 "~/get_transition_graph",
+                LIFECYCLE,
                 "GetTransitionGraph",
-                EmptyRequest,
-                GetAvailableTransitionsResponse
-            ),
+            )?,
             true,
         ),
     ];
@@ -686,12 +677,12 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         {
             error!("map_yaml: {}; waiting for /map instead", refused.reason);
         }
-        let load_map = node.create_server::<LoadMapRequest, LoadMapResponse>(
-            ServiceMapping::Enhanced,
-            &naming.name("map_server/load_map")?,
-            &ServiceTypeName::new("nav2_msgs", "LoadMap"),
-            ros_edge::reliable(10, Durability::Volatile),
-            ros_edge::reliable(10, Durability::Volatile),
+        let load_map = ServiceServer::new(
+            &mut node,
+            &naming,
+            "map_server/load_map",
+            "nav2_msgs",
+            "LoadMap",
         )?;
         tasks.spawn(map_server::serve_load_map(
             shared.clone(),
@@ -699,13 +690,8 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             load_map,
             goal_tx.clone(),
         ));
-        let get_map = node.create_server::<GetMapRequest, GetMapResponse>(
-            ServiceMapping::Enhanced,
-            &naming.name("map_server/map")?,
-            &ServiceTypeName::new("nav_msgs", "GetMap"),
-            ros_edge::reliable(10, Durability::Volatile),
-            ros_edge::reliable(10, Durability::Volatile),
-        )?;
+        let get_map =
+            ServiceServer::new(&mut node, &naming, "map_server/map", "nav_msgs", "GetMap")?;
         tasks.spawn(map_server::serve_get_map(
             shared.clone(),
             map_server,

@@ -6,7 +6,7 @@ use crate::drive::{hand_topic_goal_to_recoveries, DriveEnd};
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalRequest, GoalSlot, Handover, MapState, Shared};
-use log::{error, info, warn};
+use log::{error, info};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
@@ -14,7 +14,7 @@ use planner_core::grid::GridMap;
 use planner_core::planner::{Interrupt, PlanContext, PlannerRng};
 use planner_core::{registry, PlannerName};
 use rand::SeedableRng;
-use ros2_client::Server;
+use ros_edge::service::ServiceServer;
 use std::cell::Cell;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -388,16 +388,10 @@ pub async fn plan_goals(s: Arc<Shared>, o: Outputs, mut slot: watch::Receiver<Go
 pub async fn serve_get_plan(
     s: Arc<Shared>,
     o: Outputs,
-    server: Server<GetPlanRequest, GetPlanResponse>,
+    server: ServiceServer<GetPlanRequest, GetPlanResponse>,
 ) {
     loop {
-        let (id, req) = match server.async_receive_request().await {
-            Ok(r) => r,
-            Err(e) => {
-                warn!("make_plan: {e:?}");
-                continue;
-            }
-        };
+        let (id, req) = server.next_request().await;
         let outcome = answer_get_plan(&s, req).await;
         o.diagnose(&s, &outcome).await;
         let plan = match &outcome.result {
@@ -407,11 +401,6 @@ pub async fn serve_get_plan(
                 poses: Vec::new(),
             },
         };
-        if let Err(e) = server
-            .async_send_response(id, GetPlanResponse { plan })
-            .await
-        {
-            warn!("make_plan response: {e:?}");
-        }
+        server.respond(id, GetPlanResponse { plan }).await;
     }
 }

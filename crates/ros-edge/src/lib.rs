@@ -2,11 +2,13 @@
 //! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header stamps
 //! from the system clock (or `/clock`, with `use_sim_time`), SIGINT and SIGTERM, the reliable QoS
 //! profile set explicitly on every topic (ros2-client's defaults differ from rclpy's), logging to
-//! the terminal and `/rosout`, and reading a node's block of a ROS 2 parameter file (`parameters`).
+//! the terminal and `/rosout`, reading a node's block of a ROS 2 parameter file (`parameters`),
+//! and serving a ROS 2 service (`service`).
 
 pub mod logging;
 pub mod naming;
 pub mod parameters;
+pub mod service;
 
 use anyhow::{Context as _, Result};
 use patrol_msgs::builtin_interfaces::Time;
