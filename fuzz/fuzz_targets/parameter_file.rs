@@ -41,7 +41,7 @@ fuzz_target!(|data: &[u8]| {
         assert!(file.node.map_to_odom.iter().all(|v| v.is_finite()));
     }
     // The in-memory part: each struct straight from the bytes.
-    if planner_core::grid::parsers::yaml_guard::check(data).is_err() {
+    if input_guard::yaml::check(data).is_err() {
         return;
     }
     if let Ok(config) = serde_yaml::from_slice::<PlannerConfig>(data) {

@@ -93,16 +93,33 @@ fn load() -> Result<Params> {
     } else {
         Params::default()
     };
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !params.limits.is_valid()
-        || !positive(params.cmd_timeout)
-        || !positive(params.rate_hz)
-        || params.rate_hz > 1000.0
-        || !positive(params.feedback_timeout)
-        || !positive(params.reconnect_interval)
-    {
-        bail!("limits, cmd_timeout, feedback_timeout, reconnect_interval and rate_hz (at most 1000) must be finite and positive");
+    check(&params)?;
+    Ok(params)
+}
+
+/// The longest `cmd_timeout` and `feedback_timeout` (s): the car stops when commands (or the
+/// board's feedback) stop, and at 0.6 m/s it drives 1.2 m in this time.
+const MAX_TIMEOUT: f64 = 2.0;
+
+/// A parameter file's values: the limits no looser than the car's rated ones, the timeouts
+/// short enough that the car does stop when commands stop, the geometry positive.
+fn check(params: &Params) -> Result<()> {
+    let within = |v: f64, lo: f64, hi: f64| v > lo && v <= hi;
+    if !params.limits.is_within_rated() {
+        let r = TwistLimits::RATED;
+        bail!(
+            "limits must be positive and within the car's rated limits: max_linear {} m/s, max_angular {} rad/s, max_linear_accel {} m/s^2, max_angular_accel {} rad/s^2",
+            r.max_linear, r.max_angular, r.max_linear_accel, r.max_angular_accel
+        );
     }
+    if !within(params.cmd_timeout, 0.0, MAX_TIMEOUT)
+        || !within(params.feedback_timeout, 0.0, MAX_TIMEOUT)
+        || !within(params.reconnect_interval, 0.0, 60.0)
+        || !within(params.rate_hz, 0.0, 1000.0)
+    {
+        bail!("cmd_timeout and feedback_timeout must be within (0, {MAX_TIMEOUT}] s, reconnect_interval within (0, 60] s, rate_hz within (0, 1000]");
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
     if !positive(params.drive.wheel_radius) || !positive(params.drive.wheel_separation) {
         bail!("wheel_radius and wheel_separation must be positive");
     }
@@ -113,7 +130,7 @@ fn load() -> Result<Params> {
     if params.initial_pose.iter().any(|v| !v.is_finite()) {
         bail!("initial_pose must be finite");
     }
-    Ok(params)
+    Ok(())
 }
 
 fn main() -> std::process::ExitCode {
@@ -488,6 +505,29 @@ mod tests {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/chassis.yaml");
         let p: Params = ros_edge::parameters::read(&path, "chassis_bridge").unwrap();
         assert_eq!(p, Params::default());
+    }
+
+    /// Limits past the car's rated ones, and a watchdog that would let the car drive on for
+    /// minutes after the commands stop, are refused; the defaults pass.
+    #[test]
+    fn limits_past_the_rated_ones_and_long_timeouts_are_refused() {
+        assert!(check(&Params::default()).is_ok());
+        let fast = Params {
+            limits: TwistLimits {
+                max_linear: 5.0,
+                ..TwistLimits::RATED
+            },
+            ..Params::default()
+        };
+        assert!(check(&fast).unwrap_err().to_string().contains("rated"));
+        for cmd_timeout in [1e300, 2.5, 0.0, f64::NAN] {
+            let slow = Params {
+                cmd_timeout,
+                ..Params::default()
+            };
+            let err = check(&slow).unwrap_err().to_string();
+            assert!(err.contains("cmd_timeout"), "{cmd_timeout}: {err}");
+        }
     }
 
     #[test]

@@ -57,6 +57,40 @@ impl Default for FollowerParams {
     }
 }
 
+impl FollowerParams {
+    /// Checks what a parameter file can get wrong; the error names the first key out of its
+    /// range. The bounds keep the follower able to arrive: a tolerance of NaN or 0 is never met
+    /// (the robot would circle its goal for ever), and an approach distance of 0 would divide
+    /// the approach speed by zero.
+    pub fn validate(&self) -> Result<(), String> {
+        let ranges = [
+            ("lookahead", self.lookahead, 0.05, 10.0),
+            ("goal_tolerance", self.goal_tolerance, 0.01, 10.0),
+            (
+                "yaw_tolerance",
+                self.yaw_tolerance,
+                0.01,
+                std::f64::consts::PI,
+            ),
+            (
+                "rotate_angle",
+                self.rotate_angle,
+                0.01,
+                std::f64::consts::PI,
+            ),
+            ("min_turn_radius", self.min_turn_radius, 0.0, 10.0),
+            ("approach_distance", self.approach_distance, 0.01, 100.0),
+            ("min_approach_speed", self.min_approach_speed, 0.001, 1.0),
+        ];
+        match ranges.iter().find(|(_, v, lo, hi)| !(lo..=hi).contains(&v)) {
+            Some((key, v, lo, hi)) => {
+                Err(format!("follower.{key}: {v:?} is not within {lo}..={hi}"))
+            }
+            None => Ok(()),
+        }
+    }
+}
+
 /// What the follower is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Status {
@@ -253,6 +287,23 @@ mod tests {
     use super::*;
     use crate::sim::Unicycle;
     use proptest::prelude::*;
+
+    #[test]
+    fn parameters_that_could_never_arrive_are_refused() {
+        assert_eq!(FollowerParams::default().validate(), Ok(()));
+        let with = |f: fn(&mut FollowerParams, f64), v: f64| {
+            let mut p = FollowerParams::default();
+            f(&mut p, v);
+            p.validate()
+        };
+        let err = with(|p, v| p.goal_tolerance = v, f64::NAN).unwrap_err();
+        assert!(err.starts_with("follower.goal_tolerance: NaN"), "{err}");
+        assert!(with(|p, v| p.yaw_tolerance = v, -1.0).is_err());
+        assert!(with(|p, v| p.approach_distance = v, 0.0).is_err());
+        assert!(with(|p, v| p.lookahead = v, f64::INFINITY).is_err());
+        assert!(with(|p, v| p.min_approach_speed = v, 0.0).is_err());
+        assert!(with(|p, v| p.min_turn_radius = v, 0.0).is_ok());
+    }
 
     #[test]
     fn remaining_is_the_way_left_along_the_path() {

@@ -21,16 +21,22 @@ pub struct TwistLimits {
 
 impl Default for TwistLimits {
     fn default() -> Self {
-        Self {
-            max_linear: 0.6,
-            max_angular: 0.4,
-            max_linear_accel: 0.5,
-            max_angular_accel: 1.0,
-        }
+        Self::RATED
     }
 }
 
 impl TwistLimits {
+    /// The patrol car's rated limits: the paper's 0.6 m/s and 0.4 rad/s, and the accelerations
+    /// its drive is rated for. A parameter file may tighten them, never loosen them
+    /// ([`TwistLimits::is_within_rated`]), so no configuration can command the car past what it
+    /// is built for.
+    pub const RATED: TwistLimits = TwistLimits {
+        max_linear: 0.6,
+        max_angular: 0.4,
+        max_linear_accel: 0.5,
+        max_angular_accel: 1.0,
+    };
+
     /// The tighter of two sets of limits, field by field. Non-finite or negative values in
     /// `other` are ignored (the forwarded limits cannot loosen or poison the hard ones).
     pub fn tighter(&self, other: &TwistLimits) -> TwistLimits {
@@ -59,6 +65,12 @@ impl TwistLimits {
         ]
         .iter()
         .all(|v| v.is_finite() && *v > 0.0)
+    }
+
+    /// Whether every limit is a finite positive number no greater than the rated one
+    /// ([`TwistLimits::RATED`]): what a parameter file's limits must be.
+    pub fn is_within_rated(&self) -> bool {
+        self.is_valid() && self.tighter(&Self::RATED) == *self
     }
 
     /// These limits with the top linear speed lowered to `max_linear` (a speed limit), no
@@ -131,6 +143,32 @@ impl TwistLimits {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A file may tighten any limit and loosen none; zero, negative and non-finite limits are
+    /// refused as before.
+    #[test]
+    fn limits_from_a_file_may_tighten_the_rated_ones_only() {
+        assert!(TwistLimits::RATED.is_within_rated());
+        let tighter = TwistLimits {
+            max_linear: 0.3,
+            max_angular_accel: 0.2,
+            ..TwistLimits::RATED
+        };
+        assert!(tighter.is_within_rated());
+        for k in 0..4 {
+            for bad in [0.0, -0.1, f64::NAN, f64::INFINITY, 5.0] {
+                let mut v = [0.6, 0.4, 0.5, 1.0];
+                v[k] = bad;
+                let l = TwistLimits {
+                    max_linear: v[0],
+                    max_angular: v[1],
+                    max_linear_accel: v[2],
+                    max_angular_accel: v[3],
+                };
+                assert!(!l.is_within_rated(), "field {k}: {bad}");
+            }
+        }
+    }
 
     /// A command past the limits is scaled along its curve: its turn radius stays.
     #[test]

@@ -43,32 +43,10 @@ pub const MAX_FILE_BYTES: u64 = 256 << 20;
 /// A whole input file, refused before it is read when it is not a regular file or is larger
 /// than [`MAX_FILE_BYTES`]; every loader here reads through it, and so should any other.
 pub fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
-    use std::io::Read;
-    let io = |reason| LoadError::Io {
+    input_guard::read_file(path, MAX_FILE_BYTES).map_err(|reason| LoadError::Io {
         path: path.to_owned(),
         reason,
-    };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let meta = file.metadata().map_err(io)?;
-    let refuse = |what: String| io(std::io::Error::new(std::io::ErrorKind::InvalidInput, what));
-    if !meta.is_file() {
-        return Err(refuse("not a regular file".into()));
-    }
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(refuse(format!(
-            "{} bytes, more than the {MAX_FILE_BYTES} read",
-            meta.len()
-        )));
-    }
-    // The length can change under us: read at most one byte past the cap and check again.
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(MAX_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io)?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(refuse(format!("more than the {MAX_FILE_BYTES} bytes read")));
-    }
-    Ok(bytes)
+    })
 }
 
 fn map_err(path: &Path) -> impl FnOnce(MapError) -> LoadError + '_ {
@@ -127,7 +105,7 @@ pub fn load_scenario_file(path: &Path) -> Result<(ScenarioFile, PathBuf), LoadEr
 /// A fully qualified name (`/robot1/planner_server`) is found as one key or nested by namespace.
 pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::Value, LoadError> {
     let text = read(path)?;
-    planner_core::grid::parsers::yaml_guard::check(&text).map_err(|message| LoadError::Config {
+    input_guard::yaml::check(&text).map_err(|message| LoadError::Config {
         path: path.to_owned(),
         message,
     })?;

@@ -330,16 +330,22 @@ impl NodeParams {
     /// Checks the values serde cannot: limits, rates and the transform.
     pub fn validate(&self) -> Result<(), String> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !self.twist_limits.is_valid()
-            || !positive(self.control_rate_hz)
+        if !self.twist_limits.is_within_rated() {
+            let r = TwistLimits::RATED;
+            return Err(format!(
+                "twist_limits must be positive and within the car's rated limits: max_linear {} m/s, max_angular {} rad/s, max_linear_accel {} m/s^2, max_angular_accel {} rad/s^2",
+                r.max_linear, r.max_angular, r.max_linear_accel, r.max_angular_accel
+            ));
+        }
+        if !positive(self.control_rate_hz)
             || self.control_rate_hz > 200.0
             || !positive(self.pose_timeout)
         {
             return Err(
-                "twist_limits, control_rate_hz (at most 200) and pose_timeout must be finite and positive"
-                    .into(),
+                "control_rate_hz (at most 200) and pose_timeout must be finite and positive".into(),
             );
         }
+        self.follower.validate()?;
         let non_negative = |v: f64| v.is_finite() && v >= 0.0;
         if !non_negative(self.expected_planner_frequency)
             || !non_negative(self.bond_heartbeat_period)
@@ -941,6 +947,34 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("twist_limits"));
+        // Past the car's rated limits, or a follower that could never arrive: refused by name.
+        for (name, block, key) in [
+            (
+                "fast.yaml",
+                "    twist_limits: {max_linear: 25.0}\n",
+                "twist_limits",
+            ),
+            (
+                "spin.yaml",
+                "    twist_limits: {max_angular: 0.41}\n",
+                "twist_limits",
+            ),
+            (
+                "never.yaml",
+                "    follower: {goal_tolerance: .nan}\n",
+                "follower.goal_tolerance",
+            ),
+            (
+                "yaw.yaml",
+                "    follower: {yaw_tolerance: -1.0}\n",
+                "follower.yaw_tolerance",
+            ),
+        ] {
+            let err = load_parameter_file(&write(name, block))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key), "{name}: {err}");
+        }
         // The progress checker and the recoveries: read, and bad values refused by name.
         let ok = write(
             "recovery.yaml",

@@ -44,13 +44,29 @@ pub enum ParameterError {
     },
     #[error("{}: no `{node_name}: ros__parameters:` block", path.display())]
     NoBlock { path: PathBuf, node_name: String },
+    /// YAML nested deeper or indented wider than a parameter file needs (the parser would
+    /// take minutes on it).
+    #[error("{}: {reason}", path.display())]
+    TooDeep { path: PathBuf, reason: String },
 }
 
-/// The `<node_name>: ros__parameters:` block of the parameter file at `path`, as a `T`.
+/// The largest parameter file read (bytes): these files are a few kilobytes.
+pub const MAX_PARAMETER_FILE_BYTES: u64 = input_guard::yaml::MAX_YAML_BYTES as u64;
+
+/// The `<node_name>: ros__parameters:` block of the parameter file at `path`, as a `T`. The
+/// file is read through input-guard: a FIFO, a device or a file over
+/// [`MAX_PARAMETER_FILE_BYTES`] is refused before it is read, and text nested too deep before it
+/// is parsed.
 pub fn read<T: DeserializeOwned>(path: &Path, node_name: &str) -> Result<T, ParameterError> {
-    let text = std::fs::read(path).map_err(|error| ParameterError::Io {
+    let text = input_guard::read_file(path, MAX_PARAMETER_FILE_BYTES).map_err(|error| {
+        ParameterError::Io {
+            path: path.to_owned(),
+            error,
+        }
+    })?;
+    input_guard::yaml::check(&text).map_err(|reason| ParameterError::TooDeep {
         path: path.to_owned(),
-        error,
+        reason,
     })?;
     from_slice(&text, node_name)
         .map_err(|error| ParameterError::Yaml {
@@ -320,5 +336,24 @@ mod tests {
         let e = read::<Params>(&gone, "chassis_bridge").unwrap_err();
         assert!(matches!(e, ParameterError::Io { .. }), "{e:?}");
         assert!(e.to_string().starts_with(&gone.display().to_string()));
+    }
+
+    /// The chassis bridge's file is read as the planner's are: a device or a FIFO (which would
+    /// block the bridge's start for ever) is refused unread, and text nested 50 000 levels deep
+    /// (seconds to minutes in the parser) is refused before it is parsed.
+    #[test]
+    fn a_device_or_deeply_nested_text_is_refused_before_parsing() {
+        let e = read::<Params>(Path::new("/dev/zero"), "chassis_bridge").unwrap_err();
+        assert!(matches!(e, ParameterError::Io { .. }), "{e:?}");
+        assert!(e.to_string().contains("not a regular file"), "{e}");
+        let deep = format!(
+            "chassis_bridge:\n  ros__parameters:\n    limits: {}1{}\n",
+            "[".repeat(50_000),
+            "]".repeat(50_000)
+        );
+        let file = TempFile::new("deep", &deep);
+        let e = read::<Params>(&file.0, "chassis_bridge").unwrap_err();
+        assert!(matches!(e, ParameterError::TooDeep { .. }), "{e:?}");
+        assert!(e.to_string().contains("nested deeper"), "{e}");
     }
 }

@@ -117,7 +117,7 @@ impl RouteFile {
     /// Parses and validates a route file (after the shared guard against oversized or absurdly
     /// nested YAML).
     pub fn parse(yaml: &[u8]) -> Result<Self, RouteError> {
-        crate::grid::parsers::yaml_guard::check(yaml).map_err(RouteError::Format)?;
+        input_guard::yaml::check(yaml).map_err(RouteError::Format)?;
         let file: RouteFile =
             serde_yaml::from_slice(yaml).map_err(|e| RouteError::Format(e.to_string()))?;
         file.validate()?;

@@ -66,7 +66,7 @@ fn flag<'de, D: serde::Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
 impl MapYaml {
     /// Parses and checks the YAML text.
     pub fn parse(text: &[u8]) -> Result<Self, MapError> {
-        super::yaml_guard::check(text).map_err(|e| MapError::Format(format!("map yaml: {e}")))?;
+        input_guard::yaml::check(text).map_err(|e| MapError::Format(format!("map yaml: {e}")))?;
         let y: MapYaml =
             serde_yaml::from_slice(text).map_err(|e| MapError::Format(format!("map yaml: {e}")))?;
         if !(y.resolution.is_finite() && y.resolution > 0.0) {

@@ -5,5 +5,3 @@
 pub mod map_server;
 pub mod movingai;
 pub mod scenarios;
-
-pub mod yaml_guard;

@@ -38,7 +38,7 @@ impl Scenario {
 
 impl ScenarioFile {
     pub fn parse(text: &[u8]) -> Result<Self, MapError> {
-        super::yaml_guard::check(text)
+        input_guard::yaml::check(text)
             .map_err(|e| MapError::Format(format!("scenario file: {e}")))?;
         let file: Self = serde_yaml::from_slice(text)
             .map_err(|e| MapError::Format(format!("scenario file: {e}")))?;
