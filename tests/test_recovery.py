@@ -27,6 +27,7 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
   the grid as it was (nothing in it is a layer costmap_2d clears).
 - A patrol (follow_waypoints) waits at each waypoint for the inspection's word (Nav2's
   InputAtWaypoint): a waypoint without one is missed after the timeout (601), the patrol goes on.
+  A patrol whose pass reaches none of its waypoints ends (601) instead of running its passes.
 - Assisted teleop (nav2_simple_commander's assistedTeleop()): the operator's command toward the
   pillar is slowed and stopped short of it; preempt_teleop ends it, its time allowance too.
 - The spin, backup, drive_on_heading and wait actions (nav2_simple_commander's spin(), backup()
@@ -371,6 +372,27 @@ def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):
     assert log.read_text().count("waypoint 0: no input on") == timeouts + 1
     assert arrived and left, (arrived, left)
     assert left[0] - arrived[0] >= INPUT_TIMEOUT - 0.2, f"waited {left[0] - arrived[0]:.2f} s at waypoint 0"
+
+
+def test_a_patrol_whose_pass_reaches_no_waypoint_ends_instead_of_looping(rig):
+    """A patrol of four billion passes over a waypoint off the map: every leg fails at once
+    (GOAL_OUTSIDE_MAP, 204), so the node must not run the passes, a missed waypoint each. The
+    first pass that reaches none ends it: aborted with TASK_EXECUTOR_FAILED (601), the one
+    miss listed, and the node still serving (a plan on make_plan after it)."""
+    from nav2_msgs.action import FollowWaypoints
+
+    ros, _, _ = rig
+    client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
+    goal = FollowWaypoints.Goal(poses=[stamped(100.0, 100.0)], number_of_loops=4_000_000_000)
+    r, _ = behave(ros, client, goal, 30)
+    assert r.status == GoalStatus.STATUS_ABORTED, (r.status, r.result.error_msg)
+    assert r.result.error_code == 601, r.result.error_code
+    assert "reached none of its 1 waypoints" in r.result.error_msg, r.result.error_msg
+    missed = [(m.index, m.error_code) for m in r.result.missed_waypoints]
+    assert missed == [(0, 204)], missed
+    request = GetPlan.Request(start=stamped(*START), goal=stamped(2.0, 1.5))
+    plan = call_service(ros, GetPlan, "/patrol_planner/make_plan", request, 30)
+    assert len(plan.plan.poses) > 1
 
 
 def test_assisted_teleop_keeps_the_operators_robot_off_the_pillar(rig):

@@ -48,9 +48,11 @@ pub fn pose_in_frame(msg: &PoseStamped, global_frame: &str) -> Result<Pose2, Fai
     pose2(&msg.pose)
 }
 
-/// A frame id without the leading slash ROS 1 allowed (tf2 ignores it too).
+/// A frame id without the one leading slash ROS 1 allowed (`/map` is `map`). Only one: a
+/// frame id of a million slashes and `map` is no frame's name, and is refused as unknown at
+/// once instead of being carried, a megabyte a copy, into every missed waypoint of a patrol.
 pub fn frame_name(frame_id: &str) -> &str {
-    frame_id.trim_start_matches('/')
+    frame_id.strip_prefix('/').unwrap_or(frame_id)
 }
 
 /// A header stamp in seconds.
@@ -205,9 +207,12 @@ pub fn costmap_window(
         |metres: f64| ((metres / info.resolution).round() as i64).clamp(1, MAX_WINDOW_CELLS);
     let (nx, ny) = (cells(width), cells(height));
     let g = info.world_to_grid(centre);
-    // A non-finite centre casts to 0: a window at the map's corner, never a panic.
-    let x0 = (g.x - nx as f64 / 2.0).floor() as i64;
-    let y0 = (g.y - ny as f64 / 2.0).floor() as i64;
+    // A non-finite centre casts to 0: a window at the map's corner, never a panic. A centre a
+    // trillion cells off the map (a pose of 1e300 m is finite) is held there, where the window
+    // is all off the map as it would be farther out, so `x0 + nx` cannot overflow.
+    const FAR: i64 = 1 << 40;
+    let x0 = ((g.x - nx as f64 / 2.0).floor() as i64).clamp(-FAR, FAR);
+    let y0 = ((g.y - ny as f64 / 2.0).floor() as i64).clamp(-FAR, FAR);
     let (w, h) = (i64::from(info.width), i64::from(info.height));
     let mut data = Vec::with_capacity((nx * ny) as usize);
     for y in y0..y0 + ny {
@@ -615,6 +620,9 @@ mod tests {
         assert!(pose_in_frame(&stamped("map", 1.0, 2.0, q), "map").is_ok());
         assert!(pose_in_frame(&stamped("", 1.0, 2.0, q), "map").is_ok());
         assert!(pose_in_frame(&stamped("/map", 1.0, 2.0, q), "map").is_ok());
+        // One slash is ROS 1's; more make no frame's name.
+        let slashes = format!("{}map", "/".repeat(1000));
+        assert!(pose_in_frame(&stamped(&slashes, 1.0, 2.0, q), "map").is_err());
         assert_eq!(
             pose_in_frame(&stamped("odom", 1.0, 2.0, q), "map")
                 .unwrap_err()
@@ -810,6 +818,21 @@ mod tests {
         assert_eq!(w.metadata.size_x as i64, MAX_WINDOW_CELLS);
         assert_eq!(w.metadata.size_y, 1);
         assert_eq!(w.data.len(), MAX_WINDOW_CELLS as usize);
+        // A finite centre far past any map (odometry of 1e300 m) is a whole window off the
+        // map: every cell there, none wrapped away.
+        for far in [1e300, -1e300] {
+            let w = costmap_window(
+                &info,
+                &grid,
+                |_| false,
+                Point2::new(far, far),
+                (0.03, 0.02),
+                "map",
+                Time::default(),
+            );
+            assert_eq!((w.metadata.size_x, w.metadata.size_y), (3, 2));
+            assert_eq!(w.data, vec![NO_INFORMATION; 6]);
+        }
     }
 
     /// A 100 m path at a resolution of 1e-6 m (a map replaced mid-plan, a corrupted one) is

@@ -31,6 +31,10 @@ use std::time::{Duration, Instant};
 /// whose input did not come (`input_at_waypoint`).
 const TASK_EXECUTOR_FAILED: u16 = 601;
 
+/// The most missed waypoints a result lists. A patrol of many passes (`number_of_loops` is a
+/// u32) may miss a waypoint on every one; later misses are logged, not kept.
+const MAX_MISSED: usize = 1_000;
+
 pub type Server =
     AsyncActionServer<FollowWaypointsGoal, FollowWaypointsResult, FollowWaypointsFeedback>;
 
@@ -174,7 +178,12 @@ async fn patrol(
     };
     let stop_on_failure = s.params.stop_on_failure;
     for pass in 0..=goal.number_of_loops {
-        for i in pass_order(&order, goal.goal_index as usize, pass) {
+        let this_pass = pass_order(&order, goal.goal_index as usize, pass);
+        // A pass that reaches none of its waypoints ends the patrol: the passes after it would
+        // miss the same ones (most fail at once: off the map, in a wall), up to four billion
+        // times over, each miss a warning and a /diagnostics message.
+        let mut reached = 0usize;
+        for &i in &this_pass {
             if stop.requested() {
                 return (stop.end_status(), result);
             }
@@ -186,10 +195,16 @@ async fn patrol(
                     current_waypoint: i as u32,
                 })
                 .await;
-            let missed = |code: u16| MissedWaypoint {
-                index: i as u32,
-                goal: goal.poses[i].clone(),
-                error_code: code,
+            let mut missed = |code: u16| {
+                if result.missed_waypoints.len() < MAX_MISSED {
+                    result.missed_waypoints.push(MissedWaypoint {
+                        index: i as u32,
+                        goal: goal.poses[i].clone(),
+                        error_code: code,
+                    });
+                } else if result.missed_waypoints.len() == MAX_MISSED {
+                    warn!("follow_waypoints: {MAX_MISSED} missed waypoints listed; later misses are only logged");
+                }
             };
             match drive_to(
                 s,
@@ -206,7 +221,7 @@ async fn patrol(
                 DriveEnd::Superseded => return superseded(result, i),
                 DriveEnd::NoPlan(f) => {
                     warn!("follow_waypoints: pass {pass}, waypoint {i} missed: cannot plan to it");
-                    result.missed_waypoints.push(missed(nav2_code(f.code, 200)));
+                    missed(nav2_code(f.code, 200));
                     if stop_on_failure {
                         return failed(result, i);
                     }
@@ -214,13 +229,14 @@ async fn patrol(
                 }
                 DriveEnd::NotReached(why) => {
                     warn!("follow_waypoints: pass {pass}, waypoint {i} not reached: {why}");
-                    result.missed_waypoints.push(missed(TASK_EXECUTOR_FAILED));
+                    missed(TASK_EXECUTOR_FAILED);
                     if stop_on_failure {
                         return failed(result, i);
                     }
                     continue;
                 }
             }
+            reached += 1;
             info!("follow_waypoints: pass {pass}, waypoint {i} reached");
             // An input counts from the arrival on, during the pause too.
             let inputs_before = s.waypoint_inputs.load(Ordering::SeqCst);
@@ -243,7 +259,7 @@ async fn patrol(
                             "follow_waypoints: pass {pass}, waypoint {i}: no input on {} within {} s",
                             input.input_topic, input.timeout
                         );
-                        result.missed_waypoints.push(missed(TASK_EXECUTOR_FAILED));
+                        missed(TASK_EXECUTOR_FAILED);
                         if stop_on_failure {
                             result.error_code = TASK_EXECUTOR_FAILED;
                             result.error_msg = format!(
@@ -255,6 +271,16 @@ async fn patrol(
                     }
                 }
             }
+        }
+        if reached == 0 && !this_pass.is_empty() && pass < goal.number_of_loops {
+            result.error_code = TASK_EXECUTOR_FAILED;
+            result.error_msg = format!(
+                "pass {pass} reached none of its {} waypoints; the {} passes left would miss them again",
+                this_pass.len(),
+                goal.number_of_loops - pass
+            );
+            warn!("follow_waypoints: {}", result.error_msg);
+            return (GoalEndStatus::Aborted, result);
         }
     }
     (GoalEndStatus::Succeeded, result)
