@@ -189,6 +189,9 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         assert not answer.is_valid and list(answer.invalid_pose_indices) == [1]
         answer = nav2.is_valid([world(1.0, 1.0), world(3.0, 1.0), world(3.0, 7.0)])
         assert answer.is_valid and list(answer.invalid_pose_indices) == []
+        # An empty path is invalid, as planner_server answers it.
+        answer = nav2.is_valid([])
+        assert not answer.is_valid and list(answer.invalid_pose_indices) == []
     finally:
         ros.close()
         stop_binary(proc)

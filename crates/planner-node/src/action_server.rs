@@ -190,8 +190,10 @@ pub async fn serve<G, R, F, Run, Fut>(
             let (server, stops) = (server.clone(), stops.clone());
             tokio::spawn(async move {
                 let (status, result) = running.await;
-                stops.cancelled.lock().expect("lock").remove(&id);
                 send_result(name, &server, executing, status, result).await;
+                // After the result, not before: until it is sent the goal still counts as
+                // running, and a cancel then would be remembered for ever.
+                stops.cancelled.lock().expect("lock").remove(&id);
             });
         }
     };

@@ -236,9 +236,13 @@ pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)
     invalid
 }
 
-/// `is_path_valid` (nav2_msgs/srv/IsPathValid): the path against the current map and the
-/// robot's inflation. A path in another frame, or asked of a node that is not active or has no
-/// map, is answered invalid (with no indices) and the reason logged.
+/// `is_path_valid` (nav2_msgs/srv/IsPathValid), as planner_server answers it: the path against
+/// the current map and the robot's inflation, from the pose nearest the robot on (the part
+/// already driven may have been blocked since, and does not matter), the indices those of the
+/// whole path. An empty path is invalid, as in Nav2. Invalid too, with no indices and the
+/// reason logged: a path in another frame, a path of more than [`MAX_POSES`] poses (refused
+/// unchecked, as `follow_path` refuses it), or a node that is not active or has no map. The
+/// check runs off the async threads: a long path on a fine map is many line-of-sight walks.
 pub async fn serve_is_path_valid(
     s: Arc<Shared>,
     server: ros_edge::service::ServiceServer<
@@ -246,12 +250,21 @@ pub async fn serve_is_path_valid(
         patrol_msgs::nav2_msgs::IsPathValidResponse,
     >,
 ) {
+    use crate::follow_path::MAX_POSES;
     use patrol_msgs::nav2_msgs::IsPathValidResponse;
     loop {
         let (id, req) = server.next_request().await;
+        let poses = &req.path.poses;
         let frame = crate::convert::frame_name(&req.path.header.frame_id);
         let refusal = if let Some(f) = s.refusal() {
             Some(f.message)
+        } else if poses.is_empty() {
+            Some("the path is empty".into())
+        } else if poses.len() > MAX_POSES {
+            Some(format!(
+                "{} poses, more than the {MAX_POSES} checked",
+                poses.len()
+            ))
         } else if !frame.is_empty() && frame != s.params.global_frame {
             Some(format!(
                 "the path is in `{frame}`, this node checks paths in `{}`",
@@ -271,16 +284,28 @@ pub async fn serve_is_path_valid(
                 IsPathValidResponse::default()
             }
             (None, Some(map)) => {
-                let poses: Vec<(f64, f64)> = req
-                    .path
-                    .poses
+                let points: Vec<(f64, f64)> = poses
                     .iter()
                     .map(|p| (p.pose.position.x, p.pose.position.y))
                     .collect();
-                let invalid = invalid_poses(&map.grid, &poses);
-                IsPathValidResponse {
-                    is_valid: invalid.is_empty(),
-                    invalid_pose_indices: invalid,
+                let robot = s.start.read().expect("lock").map(|(p, _)| (p.x, p.y));
+                let check = move || {
+                    let from = robot.map_or(0, |r| nearest_pose(&points, r));
+                    let invalid = invalid_poses(&map.grid, &points[from..]);
+                    invalid
+                        .into_iter()
+                        .map(|i| i + from as i32)
+                        .collect::<Vec<_>>()
+                };
+                match tokio::task::spawn_blocking(check).await {
+                    Ok(invalid) => IsPathValidResponse {
+                        is_valid: invalid.is_empty(),
+                        invalid_pose_indices: invalid,
+                    },
+                    Err(_) => {
+                        warn!("is_path_valid: invalid: the check did not finish");
+                        IsPathValidResponse::default()
+                    }
                 }
             }
         };
@@ -288,9 +313,42 @@ pub async fn serve_is_path_valid(
     }
 }
 
+/// The index of the pose of `path` nearest `robot` (the first of equals), where planner_server's
+/// is_path_valid starts its check. `path` is not empty.
+fn nearest_pose(path: &[(f64, f64)], robot: (f64, f64)) -> usize {
+    let d = |p: &(f64, f64)| (p.0 - robot.0).hypot(p.1 - robot.1);
+    path.iter()
+        .enumerate()
+        .fold((0, f64::INFINITY), |best, (i, p)| {
+            let di = d(p);
+            if di < best.1 {
+                (i, di)
+            } else {
+                best
+            }
+        })
+        .0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Nav2 starts at the pose nearest the robot, the first of equals; a NaN pose is never
+    /// the nearest.
+    #[test]
+    fn the_check_starts_at_the_pose_nearest_the_robot() {
+        let path = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (f64::NAN, 0.0),
+            (2.0, 0.0),
+            (1.0, 0.0),
+        ];
+        assert_eq!(nearest_pose(&path, (1.1, 0.2)), 1);
+        assert_eq!(nearest_pose(&path, (5.0, 0.0)), 3);
+        assert_eq!(nearest_pose(&path, (-1.0, 0.0)), 0);
+    }
 
     #[test]
     fn invalid_poses_are_those_in_or_behind_an_obstacle() {

@@ -15,6 +15,10 @@ use std::collections::VecDeque;
 
 /// How much odometry is kept to match a pose estimate's stamp (s).
 const HISTORY_S: f64 = 2.0;
+/// The most odometry poses kept, whatever their stamps: 2 s of odometry at 500 Hz. Odometry
+/// whose stamp never advances (left unset by a driver, or `ros2 topic pub`) is never older than
+/// [`HISTORY_S`], and without this cap would be kept for ever and scanned by every estimate.
+const HISTORY_LEN: usize = 1_000;
 
 fn iso(p: Pose2) -> Isometry2<f64> {
     Isometry2::new(Vector2::new(p.x, p.y), p.yaw)
@@ -56,10 +60,11 @@ impl Localization {
             self.history.clear();
         }
         self.history.push_back((stamp, o));
-        while self
-            .history
-            .front()
-            .is_some_and(|(t, _)| stamp - t > HISTORY_S)
+        while self.history.len() > HISTORY_LEN
+            || self
+                .history
+                .front()
+                .is_some_and(|(t, _)| stamp - t > HISTORY_S)
         {
             self.history.pop_front();
         }
@@ -180,6 +185,21 @@ mod tests {
 
     fn close(a: Pose2, b: Pose2) -> bool {
         (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12 && (a.yaw - b.yaw).abs() < 1e-12
+    }
+
+    /// Odometry stamped 0 again and again (never older than the history's 2 s) is kept up to
+    /// the cap, the newest kept.
+    #[test]
+    fn odometry_that_never_ages_is_kept_to_the_cap() {
+        let mut l = Localization::new(Pose2::new(0.0, 0.0, 0.0), true);
+        for i in 0..5 * HISTORY_LEN {
+            l.odometry(0.0, Pose2::new(i as f64, 0.0, 0.0));
+        }
+        assert_eq!(l.history.len(), HISTORY_LEN);
+        assert_eq!(
+            l.history.back().unwrap().1.translation.x,
+            (5 * HISTORY_LEN - 1) as f64
+        );
     }
 
     #[test]
