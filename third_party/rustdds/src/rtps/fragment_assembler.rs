@@ -22,6 +22,13 @@ use crate::{
   },
 };
 
+// patrol-planner patch (8): the largest sample reassembled from fragments. A DATA_FRAG's
+// `data_size` is the sender's word, and a buffer of that size was allocated and zeroed for it
+// at once: one DATA_FRAG claiming 4 GiB made a reader commit 4 GiB (up to 128 such buffers per
+// writer). 256 MiB is above the largest sample patrol-planner receives (an OccupancyGrid at
+// the node's 100 M-cell cap is 100 MB). A larger sample is refused with an error.
+pub(crate) const MAX_SAMPLE_BYTES: usize = 256 << 20;
+
 // This is for the assembly of a single object
 struct AssemblyBuffer {
   buffer_bytes: BytesMut,
@@ -45,8 +52,14 @@ impl AssemblyBuffer {
       return None;
     }
 
-    let mut buffer_bytes = BytesMut::with_capacity(data_size);
-    buffer_bytes.resize(data_size, 0);
+    if data_size > MAX_SAMPLE_BYTES {
+      error!("Cannot create AssemblyBuffer: data_size={data_size} is over {MAX_SAMPLE_BYTES}");
+      return None;
+    }
+
+    // patrol-planner patch (8): zeroed by the allocator (calloc), so a buffer's pages are
+    // committed only as its fragments arrive, not all at once for a sample that never comes.
+    let buffer_bytes = BytesMut::zeroed(data_size);
 
     let fragment_count = usize::from(datafrag.total_number_of_fragments());
     if fragment_count == 0 {
@@ -340,7 +353,7 @@ impl FragmentAssembler {
 mod tests {
   use bytes::Bytes;
 
-  use super::AssemblyBuffer;
+  use super::{AssemblyBuffer, MAX_SAMPLE_BYTES};
   use crate::{
     messages::submessages::submessages::DataFrag, structure::sequence_number::FragmentNumber,
   };
@@ -397,6 +410,20 @@ mod tests {
     ab.insert_frags(&all, frag_size);
     assert!(ab.is_complete());
     assert_eq!(&ab.buffer_bytes[..], &whole[..]);
+  }
+
+  // patrol-planner patch (8): a DATA_FRAG claiming a sample over MAX_SAMPLE_BYTES gets no
+  // buffer (it used to be allocated and zeroed whole); one at the cap does.
+  #[test]
+  fn a_sample_over_the_cap_gets_no_buffer() {
+    let frag_size = 1024u16;
+    let huge = datafrag(1, 1, frag_size, u32::MAX, vec![0u8; 1024]);
+    assert!(AssemblyBuffer::new(&huge).is_none());
+    let over = datafrag(1, 1, frag_size, MAX_SAMPLE_BYTES as u32 + 1, vec![0u8; 1024]);
+    assert!(AssemblyBuffer::new(&over).is_none());
+    let at = datafrag(1, 1, frag_size, MAX_SAMPLE_BYTES as u32, vec![0u8; 1024]);
+    let ab = AssemblyBuffer::new(&at).expect("a buffer at the cap");
+    assert_eq!(ab.buffer_bytes.len(), MAX_SAMPLE_BYTES);
   }
 
   // Malformed span (starting at last fragment but claiming multiple fragments)
