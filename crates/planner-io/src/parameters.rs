@@ -465,9 +465,25 @@ impl NodeParams {
     }
 }
 
-/// Keys of Nav2's planner_server block that this node reads past: it hosts no costmap of its
-/// own. Each is accepted with a warning, so that Nav2's own params file loads unedited.
-const NAV2_KEYS_IGNORED: [&str; 1] = ["costmap_update_timeout"];
+/// Keys of Nav2's planner_server block that this node reads past, each with why. Each is
+/// accepted with a warning, so that Nav2's own params file loads unedited.
+const NAV2_KEYS_IGNORED: [(&str, &str); 2] = [
+    (
+        "costmap_update_timeout",
+        "this node hosts no costmap of its own",
+    ),
+    (
+        "action_server_result_timeout",
+        "this node keeps an action's result 900 s for its client, as rcl_action does by default",
+    ),
+];
+
+/// Keys of a Nav2 planner plugin's block (NavFn's, Smac's and Theta*'s alike) that mean what
+/// this node's top-level keys of the same meaning do: the first plugin id's (the one an
+/// empty `planner_id` asks for) set those when the file does not set them itself, so that
+/// Nav2's params file plans as Nav2 would (its GridBased block has `tolerance: 0.5` and
+/// `allow_unknown: true`, where this node's defaults are 0.25 and false).
+const PLUGIN_KEYS_ADOPTED: [&str; 2] = ["tolerance", "allow_unknown"];
 
 /// What an id's block (`GridBased: {plugin: ..., tolerance: ...}`) makes the id answer with:
 /// `Some(planner)` for one of ours, `None` (the `planner` parameter) for a Nav2 C++ plugin
@@ -476,6 +492,7 @@ const NAV2_KEYS_IGNORED: [&str; 1] = ["costmap_update_timeout"];
 fn plugin_block(
     id: &str,
     block: &Value,
+    adopts: bool,
     warnings: &mut Vec<String>,
 ) -> Result<Option<PlannerName>, String> {
     let Value::Mapping(m) = block else {
@@ -495,7 +512,7 @@ fn plugin_block(
     let others: Vec<&str> = m
         .keys()
         .filter_map(Value::as_str)
-        .filter(|k| *k != "plugin")
+        .filter(|k| *k != "plugin" && !(adopts && PLUGIN_KEYS_ADOPTED.contains(k)))
         .collect();
     if !others.is_empty() {
         warnings.push(format!(
@@ -512,6 +529,43 @@ fn plugin_block(
             Ok(None)
         }
         Err(e) => Err(format!("`{id}.plugin`: {}", e.reason)),
+    }
+}
+
+/// [`PLUGIN_KEYS_ADOPTED`] from the first plugin id's block into the planning keys, where the
+/// file leaves them unset (a top-level `tolerance` or `costmap.allow_unknown` wins, with a
+/// warning when the block says otherwise). Their types are checked with the rest.
+fn adopt_plugin_keys(id: &str, block: &Value, planning: &mut Mapping, warnings: &mut Vec<String>) {
+    for key in PLUGIN_KEYS_ADOPTED {
+        let Some(value) = block.get(key) else {
+            continue;
+        };
+        // `allow_unknown` is the costmap section's here.
+        let section = if key == "allow_unknown" {
+            let costmap = planning
+                .entry(Value::from("costmap"))
+                .or_insert_with(|| Value::Mapping(Mapping::new()));
+            match costmap {
+                Value::Mapping(m) => m,
+                // Not a mapping: the typed read below names it.
+                _ => continue,
+            }
+        } else {
+            &mut *planning
+        };
+        match section.get(key) {
+            None => {
+                section.insert(Value::from(key), value.clone());
+                warnings.push(format!(
+                    "`{key}` from `{id}`: {} (the block of the first planner_plugins id)",
+                    serde_yaml::to_string(value).unwrap_or_default().trim_end()
+                ));
+            }
+            Some(own) if own != value => warnings.push(format!(
+                "`{id}.{key}` ignored: the top-level value is set and wins"
+            )),
+            Some(_) => {}
+        }
     }
 }
 
@@ -586,6 +640,7 @@ pub fn load_parameter_file_for(
     };
     let (mut planning, mut node) = (Mapping::new(), Mapping::new());
     let (mut plugin_planners, mut warnings) = (BTreeMap::new(), Vec::new());
+    let mut first_block = None;
     for (key, value) in block {
         let name = key.as_str().unwrap_or_default();
         if plugin_ids.iter().any(|id| id == name) {
@@ -594,16 +649,18 @@ pub fn load_parameter_file_for(
                     "planner_plugins id `{name}` is also a parameter's name"
                 )));
             }
-            let planner = plugin_block(name, &value, &mut warnings).map_err(config_err)?;
+            let first = plugin_ids.first().is_some_and(|id| id == name);
+            let planner = plugin_block(name, &value, first, &mut warnings).map_err(config_err)?;
             plugin_planners.insert(name.to_owned(), planner);
+            if first {
+                first_block = Some(value);
+            }
         } else if planning_keys.iter().any(|k| k == name) {
             planning.insert(key, value);
         } else if node_keys.iter().any(|k| k == name) {
             node.insert(key, value);
-        } else if NAV2_KEYS_IGNORED.contains(&name) {
-            warnings.push(format!(
-                "ignored Nav2's `{name}`: this node hosts no costmap of its own"
-            ));
+        } else if let Some((_, why)) = NAV2_KEYS_IGNORED.iter().find(|(k, _)| *k == name) {
+            warnings.push(format!("ignored Nav2's `{name}`: {why}"));
         } else {
             let mut valid = planning_keys.clone();
             valid.extend(node_keys.iter().cloned());
@@ -613,6 +670,9 @@ pub fn load_parameter_file_for(
                 valid.join(", ")
             )));
         }
+    }
+    if let Some(block) = &first_block {
+        adopt_plugin_keys(&plugin_ids[0], block, &mut planning, &mut warnings);
     }
     // A value of the wrong type is named by its key path (`swarm.population: invalid value:
     // integer -5, expected usize`), not by serde's type alone.
@@ -706,6 +766,7 @@ mod tests {
             "nav2_params.yaml",
             "planner_server:\n  ros__parameters:\n    expected_planner_frequency: 20.0\n    \
              use_sim_time: True\n    costmap_update_timeout: 1.0\n    \
+             action_server_result_timeout: 10.0\n    \
              planner_plugins: [\"GridBased\"]\n    GridBased:\n      \
              plugin: \"nav2_navfn_planner/NavfnPlanner\"\n      tolerance: 0.5\n      \
              use_astar: false\n      allow_unknown: true\n",
@@ -714,11 +775,15 @@ mod tests {
         let warned = file.warnings.join("\n");
         for word in [
             "costmap_update_timeout",
+            "action_server_result_timeout",
             "nav2_navfn_planner/NavfnPlanner",
-            "tolerance, use_astar, allow_unknown",
+            "ignored in `GridBased`: use_astar",
         ] {
             assert!(warned.contains(word), "{word} not in {warned}");
         }
+        // The plugin's tolerance and allow_unknown mean what this node's keys do: adopted.
+        assert_eq!(file.planning.tolerance, 0.5);
+        assert!(file.planning.costmap.allow_unknown);
         let node = &file.node;
         assert_eq!(node.expected_planner_frequency, 20.0);
         assert!(
@@ -740,6 +805,40 @@ mod tests {
         );
         let file = load_parameter_file_for(&nested, &["/robot1/planner_server"]).unwrap();
         assert_eq!(file.planning.planner, PlannerName::Astar);
+    }
+
+    /// The first plugin's block sets what the file leaves unset; a top-level value wins; a
+    /// second plugin's block sets nothing; a value of the wrong type is refused by name.
+    #[test]
+    fn the_first_plugins_tolerance_and_allow_unknown_fill_unset_keys() {
+        let both = write(
+            "adopt.yaml",
+            "    planner_plugins: [A, B]\n    A: {plugin: astar, tolerance: 0.6}\n    \
+             B: {plugin: mocmcso, tolerance: 0.9, allow_unknown: true}\n    \
+             costmap: {allow_unknown: false}\n",
+        );
+        let file = load_parameter_file(&both).unwrap();
+        assert_eq!(file.planning.tolerance, 0.6);
+        assert!(!file.planning.costmap.allow_unknown);
+        let warned = file.warnings.join("\n");
+        assert!(
+            warned.contains("ignored in `B`: tolerance, allow_unknown"),
+            "{warned}"
+        );
+        let own = write(
+            "own.yaml",
+            "    tolerance: 0.1\n    planner_plugins: [A]\n    A: {plugin: astar, tolerance: 0.6, allow_unknown: true}\n",
+        );
+        let file = load_parameter_file(&own).unwrap();
+        assert_eq!(file.planning.tolerance, 0.1);
+        assert!(file.planning.costmap.allow_unknown);
+        assert!(file.warnings.join("\n").contains("`A.tolerance` ignored"));
+        let bad = write(
+            "badtol.yaml",
+            "    planner_plugins: [A]\n    A: {plugin: astar, tolerance: far}\n",
+        );
+        let err = load_parameter_file(&bad).unwrap_err().to_string();
+        assert!(err.contains("tolerance"), "{err}");
     }
 
     #[test]

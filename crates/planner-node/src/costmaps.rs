@@ -20,7 +20,7 @@
 //! filter, none of which costmap_2d clears either (its static layer, inflation layer and
 //! costmap filters are not clearable). So each request is answered at once, leaves the grid as
 //! it is, and says so in the log. With `costmap_topic` the global costmap is another node's,
-//! which serves its own clearing services; the node then serves only the local costmap's.
+//! which serves its own services; the node then serves only the local costmap's.
 
 use crate::outputs::Outputs;
 use crate::state::Shared;
@@ -44,13 +44,14 @@ pub fn serve(
     shared: &Arc<Shared>,
     out: &Outputs,
 ) -> anyhow::Result<()> {
-    // With costmap_topic the global costmap's own node serves its clearing services.
+    // With costmap_topic the global costmap's own node serves its services: two servers of
+    // one name would answer in turn, and ours from the 0-100 scale the topic carries.
     let mine: &[Which] = if shared.params.costmap_topic.is_empty() {
         &[Which::Global, Which::Local]
     } else {
         &[Which::Local]
     };
-    for which in [Which::Global, Which::Local] {
+    for &which in mine {
         let name = format!("{}/get_costmap", which.name());
         let server = ServiceServer::new(node, naming, &name, "nav2_msgs", "GetCostmap")?;
         tasks.spawn(serve_get_costmap(
