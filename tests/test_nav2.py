@@ -1,7 +1,8 @@
 """The node as a Nav2 stack uses planner_server, with nav2_msgs built into the test venv
 (tests/build_interfaces.sh): ComputePathToPose as nav2_simple_commander's getPath calls it,
 ComputePathThroughPoses as getPathThroughPoses does, Nav2's error codes, cancel during a slow
-plan, planner ids, results asked for late and out of order, and is_path_valid; with
+plan, planner_server's one pending goal (a newer goal waits for the running one, an older waiting
+one is aborted), planner ids, results asked for late and out of order, and is_path_valid; with
 `follow_plan: false`, as beside a Nav2 stack, none of the actions that drive (bt_navigator's,
 waypoint_follower's, behavior_server's) is served, so none of that stack's goals can reach it. The node runs on a domain of its own, with the test map of
 test_node.py published on /map (collisions checked with this suite's own code)."""
@@ -65,6 +66,20 @@ class Nav2Client:
         future = self.valid.call_async(IsPathValid.Request(path=path))
         self.ros.spin_until(future.done, 20, "is_path_valid's answer")
         return future.result()
+
+
+def goal_to(start, end, planner_id):
+    g = ComputePathToPose.Goal()
+    g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*end), True, planner_id
+    return g
+
+
+def accept(nav2, goal):
+    """Sends `goal` on ComputePathToPose; returns its handle once accepted."""
+    sent = nav2.to_pose.send_goal_async(goal)
+    handle = nav2.ros.spin_until(lambda: sent.done() and sent.result(), 20, "the goal's acceptance")
+    assert handle.accepted
+    return handle
 
 
 def near(pose, point, tol):
@@ -134,6 +149,29 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         status, result = nav2.send(nav2.to_pose, g, cancel_after=1.0, timeout=15)
         assert status == 5, f"status {status}, {result.error_msg}"  # CANCELED
 
+        # planner_server's one pending goal: a slow plan runs on while newer goals come (it
+        # ends here only when cancelled); of two sent meanwhile the older waiting one is
+        # replaced (ABORTED, an empty result), the newer waits and then plans.
+        slow_handle = accept(nav2, g)
+        ros.spin_for(0.5)
+        replaced = accept(nav2, goal_to(start, goal, ""))
+        pending = accept(nav2, goal_to(start, world(3.0, 7.0), "any_angle"))
+        replaced_result = replaced.get_result_async()
+        ros.spin_until(replaced_result.done, 10, "the replaced goal's result")
+        r = replaced_result.result()
+        assert (r.status, r.result.error_code, len(r.result.path.poses)) == (6, 0, 0), r.result.error_msg
+        pending_result = pending.get_result_async()
+        ros.spin_for(1.0)
+        assert not pending_result.done(), "the pending goal ran beside the slow one"
+        cancel = slow_handle.cancel_goal_async()
+        ros.spin_until(cancel.done, 10, "the cancel's answer")
+        slow_result = slow_handle.get_result_async()
+        ros.spin_until(slow_result.done, 15, "the slow goal's result")
+        assert slow_result.result().status == 5, slow_result.result().status  # CANCELED
+        ros.spin_until(pending_result.done, 15, "the pending goal's result")
+        r = pending_result.result()
+        assert r.status == 4 and near(r.result.path.poses[-1], world(3.0, 7.0), 1e-6), r.result.error_msg
+
         # Through three poses: one joined path passing each of them.
         vias = [world(3.0, 7.0), world(8.0, 7.0), world(10.0, 5.0)]
         t = ComputePathThroughPoses.Goal()
@@ -168,20 +206,15 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         # Each goal has its own end, so a result handed to the other client is seen.
         handles, ends = [], [goal, world(3.0, 7.0)]
         for planner_id, end in zip(("", "any_angle"), ends):
-            g = ComputePathToPose.Goal()
-            g.start, g.goal, g.use_start, g.planner_id = stamped(*start), stamped(*end), True, planner_id
-            sent = nav2.to_pose.send_goal_async(g)
-            handles.append(ros.spin_until(lambda: sent.done() and sent.result(), 20, "the goal's acceptance"))
-        ros.spin_for(2.0)  # both planned (the first preempted or done) and waiting
+            handles.append(accept(nav2, goal_to(start, end, planner_id)))
+        ros.spin_for(2.0)  # both planned, one after the other, and waiting
         results = [h.get_result_async() for h in reversed(handles)]
         ros.spin_until(lambda: all(r.done() for r in results), 10, "both results, asked for late")
         newer, older = results[0].result(), results[1].result()
-        assert newer.status == 4, newer.result.error_msg
+        # A newer plan goal waits for the running one, as planner_server's: both succeed.
+        assert (newer.status, older.status) == (4, 4), (newer.result.error_msg, older.result.error_msg)
         assert near(newer.result.path.poses[-1], ends[1], 1e-6), "the newer goal got the older's result"
-        # The older one succeeded before the newer came, or was preempted (aborted) by it.
-        assert older.status in (4, 6), older.status
-        if older.status == 4:
-            assert near(older.result.path.poses[-1], ends[0], 1e-6), "the older goal got the newer's result"
+        assert near(older.result.path.poses[-1], ends[0], 1e-6), "the older goal got the newer's result"
 
         # is_path_valid: through the wall invalid with its indices, in free space valid.
         crossing = [world(4.0, 3.0), world(5.5, 3.0), world(7.0, 3.0)]

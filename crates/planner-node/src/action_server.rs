@@ -1,7 +1,10 @@
 //! The door every action of the node goes through, as Nav2's `SimpleActionServer` is for its
 //! servers: a goal is rejected while the node is not active (lifecycle), otherwise accepted and
-//! run on a task of its own; a newer goal preempts the running one (which ends aborted, as
-//! Nav2's does), and a client's cancel is accepted and noticed by the run, which ends canceled.
+//! run on a task of its own, and a client's cancel is accepted and noticed by the run, which
+//! ends canceled. What a newer goal does to the running one is the action's [`Preemption`]:
+//! it stops it (the driving actions, as bt_navigator's and behavior_server's are preempted), or
+//! waits its turn (the planner's actions, as planner_server plans one goal to its end before
+//! taking the next).
 //! What a goal does (plan, patrol, drive) is the run's business: it gets the goal, a
 //! [`GoalStop`] to poll, and a [`Feedback`] sender.
 
@@ -16,6 +19,19 @@ use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+
+/// What a newer goal of an action does to the one running.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preemption {
+    /// The running goal stops, and ends aborted (bt_navigator, behavior_server,
+    /// controller_server, waypoint_follower: the newer goal is where the robot goes now).
+    Newest,
+    /// The running goal runs to its end; the newer one waits for it, and an older one still
+    /// waiting ends aborted with an empty result. planner_server's SimpleActionServer keeps one
+    /// pending goal this way, so a script's `getPath` beside bt_navigator's replanning delays
+    /// the tree's plan instead of aborting it (and the tree's recovery with it).
+    Queue,
+}
 
 /// The goals of one action asked to stop.
 #[derive(Default)]
@@ -32,6 +48,8 @@ pub struct GoalStop {
     stops: Arc<Stops>,
     number: u64,
     id: GoalId,
+    /// Whether a newer goal stops this one once it runs ([`Preemption::Newest`]).
+    preemptible: bool,
 }
 
 impl GoalStop {
@@ -42,23 +60,32 @@ impl GoalStop {
             stops: Arc::new(Stops::default()),
             number: 0,
             id: GoalId::ZERO,
+            preemptible: false,
         }
     }
 
-    /// A newer goal of the same action has arrived.
+    /// A newer goal of the same action has arrived, and stops this one.
     pub fn preempted(&self) -> bool {
+        self.preemptible && self.replaced()
+    }
+
+    /// A newer goal of the same action has arrived.
+    fn replaced(&self) -> bool {
         self.stops.newest.load(Ordering::SeqCst) != self.number
+    }
+
+    /// Cancelled by a client.
+    fn cancelled(&self) -> bool {
+        self.stops
+            .cancelled
+            .lock()
+            .expect("lock")
+            .contains(&self.id)
     }
 
     /// Preempted, or cancelled by a client.
     pub fn requested(&self) -> bool {
-        self.preempted()
-            || self
-                .stops
-                .cancelled
-                .lock()
-                .expect("lock")
-                .contains(&self.id)
+        self.preempted() || self.cancelled()
     }
 
     /// Why a goal that stopped on request stopped, for its result's message.
@@ -122,22 +149,26 @@ where
 }
 
 /// Serves the action `name` until the node stops: each accepted goal runs `run(s, o, goal,
-/// stop, feedback)` on a task of its own, and its result goes back to the client.
+/// stop, feedback)` on a task of its own, after the running one under [`Preemption::Queue`],
+/// and its result goes back to the client.
 pub async fn serve<G, R, F, Run, Fut>(
     s: Arc<Shared>,
     o: Outputs,
     name: &'static str,
+    preemption: Preemption,
     server: AsyncActionServer<G, R, F>,
     run: Run,
 ) where
     G: Message + Clone + Send + Sync + 'static,
-    R: Message + Clone + Send + Sync + 'static,
+    R: Message + Clone + Default + Send + Sync + 'static,
     F: Message + Send + Sync + 'static,
     Run: Fn(Arc<Shared>, Outputs, G, GoalStop, Feedback<G, R, F>) -> Fut,
     Fut: Future<Output = (GoalEndStatus, R)> + Send + 'static,
 {
     let server = Arc::new(server);
     let stops = Arc::new(Stops::default());
+    // Under Preemption::Queue, held by the goal that runs.
+    let turn = Arc::new(tokio::sync::Mutex::new(()));
     let goals = async {
         loop {
             let handle = match server.receive_new_goal().await {
@@ -181,14 +212,28 @@ pub async fn serve<G, R, F, Run, Fut>(
                 stops: stops.clone(),
                 number,
                 id,
+                preemptible: preemption == Preemption::Newest,
             };
             let feedback = Feedback {
                 server: server.clone(),
                 executing: executing.clone(),
             };
+            let waiting = stop.clone();
             let running = run(s.clone(), o.clone(), goal, stop, feedback);
-            let (server, stops) = (server.clone(), stops.clone());
+            let (server, stops, turn) = (server.clone(), stops.clone(), turn.clone());
             tokio::spawn(async move {
+                let _turn = match preemption {
+                    Preemption::Newest => None,
+                    Preemption::Queue => match wait_for_turn(&turn, &waiting).await {
+                        Ok(held) => Some(held),
+                        Err(status) => {
+                            info!("{name}: goal {}", waiting_end(status));
+                            send_result(name, &server, executing, status, R::default()).await;
+                            stops.cancelled.lock().expect("lock").remove(&id);
+                            return;
+                        }
+                    },
+                };
                 let (status, result) = running.await;
                 send_result(name, &server, executing, status, result).await;
                 // After the result, not before: until it is sent the goal still counts as
@@ -199,6 +244,39 @@ pub async fn serve<G, R, F, Run, Fut>(
     };
     // Goals and cancels side by side; both end when the node's task set is shut down.
     tokio::join!(goals, serve_cancels(name, server.clone(), stops.clone()));
+}
+
+/// How often a goal waiting its turn looks whether it may run, was replaced or cancelled.
+const TURN_POLL: Duration = Duration::from_millis(10);
+
+/// Waits until the goal of `stop` may run (the turn is free) and returns the turn, held until
+/// the goal's end; or how the goal ends without running: aborted when a newer goal has come
+/// meanwhile (the newest waits, as Nav2's pending slot holds one), canceled when its client
+/// cancelled it.
+async fn wait_for_turn(
+    turn: &Arc<tokio::sync::Mutex<()>>,
+    stop: &GoalStop,
+) -> Result<tokio::sync::OwnedMutexGuard<()>, GoalEndStatus> {
+    loop {
+        if stop.replaced() {
+            return Err(GoalEndStatus::Aborted);
+        }
+        if stop.cancelled() {
+            return Err(GoalEndStatus::Canceled);
+        }
+        if let Ok(held) = turn.clone().try_lock_owned() {
+            return Ok(held);
+        }
+        tokio::time::sleep(TURN_POLL).await;
+    }
+}
+
+/// How a goal that never ran ended, for the log.
+fn waiting_end(status: GoalEndStatus) -> &'static str {
+    match status {
+        GoalEndStatus::Canceled => "canceled while it waited for the running one",
+        _ => "replaced by a newer goal while it waited for the running one: aborted",
+    }
 }
 
 /// How long a finished goal's result waits for its client to ask for it, as rcl_action keeps

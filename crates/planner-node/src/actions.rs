@@ -6,6 +6,7 @@
 //! goal on `/goal_pose` does; the actions plan only, they do not drive.
 
 use crate::action_server::GoalStop;
+use crate::action_server::Preemption;
 use crate::outputs::Outputs;
 use crate::planning;
 use crate::result::{Failure, ResultCode};
@@ -106,6 +107,7 @@ pub async fn serve<G: PlannerGoal>(
         s,
         o,
         G::NAME,
+        Preemption::Queue,
         server,
         |s, o, goal: G, stop, _feedback| async move { run_goal(&s, &o, &goal, &stop).await },
     )

@@ -15,7 +15,7 @@
 //! speed limits along its own curve first. A robot already in a keepout zone may be driven
 //! anywhere (to get it out), kept off obstacles only, as a spin or back-up started there.
 
-use crate::action_server::{Feedback, GoalStop};
+use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::behaviors::{
     allowance, clear_from, goal_end, interrupted, no_pose, BehaviorEnd, BehaviorFailure,
     STALE_LIMIT,
@@ -49,7 +49,7 @@ fn code(f: BehaviorFailure) -> u16 {
 
 /// Serves `assisted_teleop` until the node stops (the door: action_server.rs).
 pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
-    crate::action_server::serve(s, o, "assisted_teleop", server, teleop).await
+    crate::action_server::serve(s, o, "assisted_teleop", Preemption::Newest, server, teleop).await
 }
 
 /// One assisted teleop: it takes the robot and drives it by the operator's commands, each

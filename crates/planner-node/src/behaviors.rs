@@ -15,7 +15,7 @@
 //! client's cancel stops a behaviour (canceled), a newer goal of the same action preempts it
 //! (aborted), as Nav2's behaviours end.
 
-use crate::action_server::{Feedback, GoalStop};
+use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::convert::{chassis_pose, duration_msg};
 use crate::drive::{taken, DriveEnd};
 use crate::outputs::Outputs;
@@ -456,7 +456,7 @@ async fn serve<G: BehaviorGoal>(
     o: Outputs,
     server: AsyncActionServer<G, BehaviorResult, G::Feedback>,
 ) {
-    crate::action_server::serve(s, o, G::NAME, server, behave::<G>).await
+    crate::action_server::serve(s, o, G::NAME, Preemption::Newest, server, behave::<G>).await
 }
 
 /// The behaviour actions' servers.

@@ -21,7 +21,7 @@
 //! it run out, is FAILED_TO_MAKE_PROGRESS (105). No recoveries: controller_server makes none
 //! (bt_navigator's tree does).
 
-use crate::action_server::{Feedback, GoalStop};
+use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::actions::invalid_poses;
 use crate::drive::{action_end, watch_followed, Progress};
 use crate::localization::compose;
@@ -56,7 +56,7 @@ pub async fn serve(
     o: Outputs,
     server: AsyncActionServer<FollowPathGoal, FollowPathResult, FollowPathFeedback>,
 ) {
-    crate::action_server::serve(s, o, NAME, server, follow_path).await
+    crate::action_server::serve(s, o, NAME, Preemption::Newest, server, follow_path).await
 }
 
 fn result(error_code: u16, error_msg: String) -> FollowPathResult {

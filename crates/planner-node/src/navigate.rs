@@ -19,7 +19,7 @@
 //! `behavior_tree` names one of bt_navigator's trees; this node has none, and says so in its
 //! log.
 
-use crate::action_server::{Feedback, GoalStop};
+use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::actions::{nav2_code, NO_VIAPOINTS_GIVEN};
 use crate::convert::{duration_msg, pose_stamped};
 use crate::drive::{action_end, drive_to, Progress};
@@ -52,7 +52,7 @@ pub struct NavigationFeedback {
 /// What the two navigate actions' goals have in common (as actions.rs's `PlannerGoal` is for
 /// the planner actions): their poses, their tree, and how their result and feedback are made.
 pub trait NavigateGoal: Message + Clone + Send + Sync + 'static {
-    type Result: Message + Clone + Send + Sync + 'static;
+    type Result: Message + Clone + Default + Send + Sync + 'static;
     type Feedback: Message + Send + Sync + 'static;
     /// The action's name, for logs.
     const NAME: &'static str;
@@ -129,7 +129,7 @@ pub async fn serve<G: NavigateGoal>(
     o: Outputs,
     server: AsyncActionServer<G, G::Result, G::Feedback>,
 ) {
-    crate::action_server::serve(s, o, G::NAME, server, navigate::<G>).await
+    crate::action_server::serve(s, o, G::NAME, Preemption::Newest, server, navigate::<G>).await
 }
 
 /// One goal: its poses carried into the global frame, planned through, driven to.

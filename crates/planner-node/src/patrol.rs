@@ -10,7 +10,7 @@
 //! aborted with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
 //! acceleration limits.
 
-use crate::action_server::{Feedback, GoalStop};
+use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::actions::nav2_code;
 use crate::drive::{drive_to, DriveEnd};
 use crate::outputs::Outputs;
@@ -41,7 +41,7 @@ pub type Server =
 /// Serves `follow_waypoints` until the node stops; a newer patrol preempts the running one
 /// (the door: action_server.rs).
 pub async fn serve(s: Arc<Shared>, o: Outputs, server: Server) {
-    crate::action_server::serve(s, o, "follow_waypoints", server, patrol).await
+    crate::action_server::serve(s, o, "follow_waypoints", Preemption::Newest, server, patrol).await
 }
 
 /// The order to visit `poses` in from `robot`: the route planner's over the current map, or the
