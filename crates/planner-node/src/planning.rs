@@ -93,8 +93,11 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     let budget =
         (live.max_planning_time > 0.0).then(|| Duration::from_secs_f64(live.max_planning_time));
     let leg_started = Cell::new(t0);
+    // Deactivating the node (lifecycle) ends a plan under way, as planner_server's deactivated
+    // action server ends its goal: stopped as a cancel is, answered below as NOT_ACTIVE.
+    let deactivated = || s.refusal().is_some();
     let interrupt = || {
-        if cancelled() {
+        if cancelled() || deactivated() {
             Some(Interrupt::Cancelled)
         } else if budget.is_some_and(|b| leg_started.get().elapsed() >= b) {
             Some(Interrupt::Deadline)
@@ -126,6 +129,13 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
         }
         other => other,
     };
+    // No plan of a node deactivated meanwhile is answered or published.
+    if let Some(refusal) = s.refusal() {
+        return Outcome {
+            elapsed_ms,
+            ..failed(refusal)
+        };
+    }
     match result {
         // Logged where the answer is published (Outputs::diagnose), with every other outcome.
         Ok(plan) => Outcome {
