@@ -87,6 +87,9 @@ impl Default for Params {
 }
 
 fn load() -> Result<Params> {
+    for unread in ros_edge::unread_args() {
+        log::warn!("command line: {unread}");
+    }
     let (path, explicit) = ros_edge::params_file("config/chassis.yaml");
     let params: Params = if explicit || path.exists() {
         ros_edge::parameters::read(&path, "chassis_bridge")?

@@ -569,6 +569,23 @@ fn adopt_plugin_keys(id: &str, block: &Value, planning: &mut Mapping, warnings: 
     }
 }
 
+/// rclcpp's wildcard node name: its block applies to every node.
+const WILDCARD: &str = "/**";
+
+/// `over`'s keys into `base`, a mapping under a key merged key by key (a wildcard's
+/// `swarm: {population: 30}` under the node's `swarm: {patience: 5}` keeps both), anything else
+/// replaced.
+fn merge_into(base: &mut Mapping, over: Mapping) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(Value::Mapping(b)), Value::Mapping(o)) => merge_into(b, o),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
+    }
+}
+
 /// A whole parameter file: the planning part and the node's own.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ParameterFile {
@@ -594,12 +611,17 @@ fn keys<T: Serialize>(value: &T) -> Vec<String> {
 /// `/patrol_planner` or rclcpp's wildcard `/**`, as ROS 2 files are). `map_yaml` comes back
 /// resolved against the file's folder.
 pub fn load_parameter_file(path: &Path) -> Result<ParameterFile, LoadError> {
-    load_parameter_file_for(path, &[NODE_NAME, "/patrol_planner", "/**"])
+    load_parameter_file_for(path, &[NODE_NAME, "/patrol_planner", WILDCARD])
 }
 
 /// The same for a node that may run under another name (`-r __node:=planner_server -r
 /// __ns:=/robot1`): the first block the file has among `node_names` (say the fully qualified
-/// name, the plain name, `/**` as rclcpp's wildcard, then `patrol_planner`) is read.
+/// name, the plain name, then `patrol_planner`) is the node's, and rclcpp's wildcard `/**`, when
+/// `node_names` has it, applies under it as rclcpp applies every block that matches a node: its
+/// keys are the node's unless its own block sets them (a launch's `/**: use_sim_time: true`).
+/// The wildcard's keys this node does not know are meant for other nodes: ignored with a
+/// warning, where the node's own block refuses them. A file with only the wildcard's block is
+/// read as the node's own.
 pub fn load_parameter_file_for(
     path: &Path,
     node_names: &[&str],
@@ -608,30 +630,59 @@ pub fn load_parameter_file_for(
         path: path.to_owned(),
         message,
     };
-    let found = node_names
-        .iter()
-        .map(|name| (name, crate::load_ros_parameters(path, name)))
-        .find(|(_, r)| !matches!(r, Err(LoadError::Config { message, .. }) if message.starts_with("no `")));
-    let (node_name, block) = match found {
-        Some((name, block)) => (*name, block?),
-        None => {
+    let mapping = |name: &str, block: Value| match block {
+        Value::Mapping(m) => Ok(m),
+        Value::Null => Ok(Mapping::new()),
+        other => Err(config_err(format!(
+            "`{name}: ros__parameters:` is not a mapping but {other:?}"
+        ))),
+    };
+    let block_of = |name: &str| match crate::load_ros_parameters(path, name) {
+        Ok(block) => mapping(name, block).map(Some),
+        Err(LoadError::Config { message, .. }) if message.starts_with("no `") => Ok(None),
+        Err(e) => Err(e),
+    };
+    let wildcard = match node_names.contains(&WILDCARD) {
+        true => block_of(WILDCARD)?,
+        false => None,
+    };
+    let mut own = None;
+    for name in node_names.iter().filter(|n| **n != WILDCARD) {
+        if let Some(block) = block_of(name)? {
+            own = Some((*name, block));
+            break;
+        }
+    }
+    let planning_keys = keys(&PlannerConfig::default());
+    let node_keys = keys(&NodeParams::default());
+    let mut warnings = Vec::new();
+    let (node_name, block) = match (own, wildcard) {
+        (Some((name, own)), Some(wildcard)) => {
+            let mut merged = Mapping::new();
+            for (key, value) in wildcard {
+                let k = key.as_str().unwrap_or_default();
+                let known = planning_keys.iter().chain(&node_keys).any(|n| n == k)
+                    || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k);
+                if known {
+                    merged.insert(key, value);
+                } else {
+                    warnings.push(format!(
+                        "ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)"
+                    ));
+                }
+            }
+            merge_into(&mut merged, own);
+            (name, merged)
+        }
+        (Some((name, own)), None) => (name, own),
+        (None, Some(wildcard)) => (WILDCARD, wildcard),
+        (None, None) => {
             return Err(config_err(format!(
                 "no `<node>: ros__parameters:` block for any of {}",
                 node_names.join(", ")
             )))
         }
     };
-    let block = match block {
-        Value::Mapping(m) => m,
-        Value::Null => Mapping::new(),
-        other => {
-            return Err(config_err(format!(
-                "`{node_name}: ros__parameters:` is not a mapping but {other:?}"
-            )))
-        }
-    };
-    let planning_keys = keys(&PlannerConfig::default());
-    let node_keys = keys(&NodeParams::default());
     // Nav2's plugin ids, whose blocks are keys of their own names.
     let plugin_ids: Vec<String> = match block.get("planner_plugins") {
         None => NodeParams::default().planner_plugins,
@@ -639,7 +690,7 @@ pub fn load_parameter_file_for(
             .map_err(|e| config_err(format!("planner_plugins: {e}")))?,
     };
     let (mut planning, mut node) = (Mapping::new(), Mapping::new());
-    let (mut plugin_planners, mut warnings) = (BTreeMap::new(), Vec::new());
+    let mut plugin_planners = BTreeMap::new();
     let mut first_block = None;
     for (key, value) in block {
         let name = key.as_str().unwrap_or_default();
@@ -929,6 +980,33 @@ mod tests {
             let file = load_parameter_file(&p).unwrap();
             assert_eq!(file.planning.planner, PlannerName::Astar, "{key}");
         }
+    }
+
+    /// rclcpp applies `/**` and the node's own block together, the node's own winning key by
+    /// key; the wildcard's keys for other nodes are passed over with a warning.
+    #[test]
+    fn the_wildcard_block_applies_under_the_nodes_own() {
+        let p = write_file(
+            "wildcard.yaml",
+            "/**:\n  ros__parameters:\n    use_sim_time: true\n    planner: astar\n    \
+             swarm: {population: 30, patience: 9}\n    scan_topic: /scan\n\
+             patrol_planner:\n  ros__parameters:\n    planner: any_angle\n    swarm: {patience: 5}\n",
+        );
+        let file = load_parameter_file(&p).unwrap();
+        assert!(file.node.use_sim_time);
+        assert_eq!(file.planning.planner, PlannerName::AnyAngle);
+        assert_eq!(
+            (file.planning.swarm.population, file.planning.swarm.patience),
+            (30, 5)
+        );
+        let warned = file.warnings.join("\n");
+        assert!(warned.contains("`scan_topic`"), "{warned}");
+        // In the node's own block the same unknown key is refused.
+        let own = write("own_unknown.yaml", "    scan_topic: /scan\n");
+        assert!(load_parameter_file(&own)
+            .unwrap_err()
+            .to_string()
+            .contains("scan_topic"));
     }
 
     #[test]

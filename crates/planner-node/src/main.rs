@@ -43,10 +43,13 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    for unread in ros_edge::unread_args() {
+        log::warn!("command line: {unread}");
+    }
     let (path, explicit) = ros_edge::params_file("config/planner.yaml");
     let params = if explicit || path.exists() {
         // The block of the node's own name (as a Nav2 params file has `planner_server:`), else
-        // rclcpp's wildcard, else patrol_planner's.
+        // patrol_planner's, with rclcpp's wildcard `/**` applied under it.
         let full = naming.node_path();
         let names = [full.as_str(), naming.node.as_str(), "/**", "patrol_planner"];
         match load_parameter_file_for(&path, &names) {

@@ -51,6 +51,42 @@ pub fn params_file(default: &str) -> (PathBuf, bool) {
     }
 }
 
+/// What of the command line a binary reads past, in words, for a warning each: rclcpp would
+/// apply `-p name:=value` (`--param`) and every further `--params-file`, and a user who gave
+/// them should learn that they did nothing, not find out from the robot.
+pub fn unread_args() -> Vec<String> {
+    unread_args_in(std::env::args().skip(1))
+}
+
+fn unread_args_in(args: impl IntoIterator<Item = String>) -> Vec<String> {
+    let mut unread = Vec::new();
+    let (mut in_ros_args, mut files) = (false, 0);
+    let mut args = args.into_iter();
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--ros-args" => in_ros_args = true,
+            "--" => in_ros_args = false,
+            "--params-file" => {
+                files += 1;
+                let file = args.next().unwrap_or_default();
+                if files > 1 {
+                    unread.push(format!(
+                        "--params-file {file}: only the first --params-file is read; put its keys in that one"
+                    ));
+                }
+            }
+            "-p" | "--param" if in_ros_args => {
+                let rule = args.next().unwrap_or_default();
+                unread.push(format!(
+                    "{arg} {rule}: parameters are read from the --params-file only; set it there, or with `ros2 param set` once running"
+                ));
+            }
+            _ => {}
+        }
+    }
+    unread
+}
+
 /// Whether header stamps come from `/clock` ([`use_sim_time`]) instead of the system clock.
 static SIM_TIME: AtomicBool = AtomicBool::new(false);
 /// The latest `/clock` time, in nanoseconds since its epoch (0 until the first arrives).
@@ -149,6 +185,19 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `-p` and a second `--params-file` are named; remaps, the first file and the arguments
+    /// before `--ros-args` are not.
+    #[test]
+    fn what_is_read_past_is_named() {
+        let args = "--params-file a.yaml -p x --ros-args -r __ns:=/r1 -p planner:=astar \
+                    --param seed:=3 --params-file b.yaml --log-level debug";
+        let unread = unread_args_in(args.split_whitespace().map(String::from));
+        assert_eq!(unread.len(), 3, "{unread:?}");
+        assert!(unread[0].starts_with("-p planner:=astar"), "{unread:?}");
+        assert!(unread[1].starts_with("--param seed:=3"), "{unread:?}");
+        assert!(unread[2].starts_with("--params-file b.yaml"), "{unread:?}");
+    }
 
     /// With sim time on, a stamp is the latest /clock's to the nanosecond (zero before the
     /// first). The only test in this binary that turns sim time on, as it is process-wide.
