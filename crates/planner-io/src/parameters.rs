@@ -785,6 +785,14 @@ mod tests {
         p
     }
 
+    /// The file `name` with `block` is refused, its error naming `word`.
+    fn assert_refused(name: &str, block: &str, word: &str) {
+        let err = load_parameter_file(&write(name, block))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(word), "{name}: {err}");
+    }
+
     /// A parameter file whose `patrol_planner` block holds `block`.
     fn write(name: &str, block: &str) -> PathBuf {
         write_file(
@@ -963,10 +971,7 @@ mod tests {
                 "planner_plugins",
             ),
         ] {
-            let err = load_parameter_file(&write(name, block))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(word), "{name}: {err}");
+            assert_refused(name, block, word);
         }
     }
 
@@ -1053,10 +1058,7 @@ mod tests {
                 "input_at_waypoint",
             ),
         ] {
-            let err = load_parameter_file(&write(name, block))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(key), "{name}: {err}");
+            assert_refused(name, block, key);
         }
         // A keepout mask is laid over the node's own costmap only.
         let mask = write(
@@ -1108,10 +1110,7 @@ mod tests {
                 "keepout_filter_info_topic (`/info`)",
             ),
         ] {
-            let err = load_parameter_file(&write(name, block))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(key), "{name}: {err}");
+            assert_refused(name, block, key);
         }
         let bad = write("rate.yaml", "    control_rate_hz: -1.0\n");
         assert!(load_parameter_file(&bad)
@@ -1147,10 +1146,7 @@ mod tests {
                 "follower.yaw_tolerance",
             ),
         ] {
-            let err = load_parameter_file(&write(name, block))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(key), "{name}: {err}");
+            assert_refused(name, block, key);
         }
         // The progress checker and the recoveries: read, and bad values refused by name.
         let ok = write(
@@ -1230,10 +1226,7 @@ mod tests {
                 "simulation_time_step",
             ),
         ] {
-            let err = load_parameter_file(&write(name, block))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(key), "{name}: {err}");
+            assert_refused(name, block, key);
         }
     }
 }
