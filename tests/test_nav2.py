@@ -153,6 +153,7 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         # ends here only when cancelled); of two sent meanwhile the older waiting one is
         # replaced (ABORTED, an empty result), the newer waits and then plans.
         slow_handle = accept(nav2, g)
+        slow_result = slow_handle.get_result_async()
         ros.spin_for(0.5)
         replaced = accept(nav2, goal_to(start, goal, ""))
         pending = accept(nav2, goal_to(start, world(3.0, 7.0), "any_angle"))
@@ -162,10 +163,11 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         assert (r.status, r.result.error_code, len(r.result.path.poses)) == (6, 0, 0), r.result.error_msg
         pending_result = pending.get_result_async()
         ros.spin_for(1.0)
+        # Both facts rest on the slow plan still running: a million iterations, 60 s allowed.
+        assert not slow_result.done(), f"the slow plan ended early: {slow_result.result().status}"
         assert not pending_result.done(), "the pending goal ran beside the slow one"
         cancel = slow_handle.cancel_goal_async()
         ros.spin_until(cancel.done, 10, "the cancel's answer")
-        slow_result = slow_handle.get_result_async()
         ros.spin_until(slow_result.done, 15, "the slow goal's result")
         assert slow_result.result().status == 5, slow_result.result().status  # CANCELED
         ros.spin_until(pending_result.done, 15, "the pending goal's result")
@@ -199,6 +201,13 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         services = {name for name, _ in ros.node.get_service_names_and_types_by_node("patrol_planner", "/")}
         assert "/is_path_valid" in services and not any("costmap" in s for s in services), services
 
+        # A goal whose client never asks for its result (a crashed script) does not hold up the
+        # next: the turn passes on when a plan ends, not when its result is fetched.
+        accept(nav2, goal_to(start, goal, ""))
+        nxt = accept(nav2, goal_to(start, world(3.0, 7.0), "")).get_result_async()
+        ros.spin_until(nxt.done, 10, "the next goal's result")
+        assert nxt.result().status == 4, nxt.result().result.error_msg
+
         # Two goals that end before their clients ask for the results, asked for in the other
         # order: each client gets its own (ros2-client reads result requests only while sending
         # a result; the node's tries look among those another goal's try has read).
@@ -207,7 +216,7 @@ def test_planner_server_actions_and_is_path_valid(tmp_path):
         handles, ends = [], [goal, world(3.0, 7.0)]
         for planner_id, end in zip(("", "any_angle"), ends):
             handles.append(accept(nav2, goal_to(start, end, planner_id)))
-        ros.spin_for(2.0)  # both planned, one after the other, and waiting
+        ros.spin_for(2.0)  # both planned, one after the other, and their results waiting
         results = [h.get_result_async() for h in reversed(handles)]
         ros.spin_until(lambda: all(r.done() for r in results), 10, "both results, asked for late")
         newer, older = results[0].result(), results[1].result()

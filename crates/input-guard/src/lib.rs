@@ -7,34 +7,37 @@
 
 pub mod yaml;
 
+#[cfg(feature = "fs")]
 use std::io::{self, Read};
+#[cfg(feature = "fs")]
 use std::path::Path;
 
 /// The whole file at `path`, refused with [`io::ErrorKind::InvalidInput`] when it is not a
 /// regular file or holds more than `max_bytes`.
 ///
-/// The kind of file is looked at before it is opened: opening a FIFO blocks until a writer
-/// comes, which would hang the binary for good. What was opened is looked at again (the path
-/// may have changed in between), and the read stops one byte past the cap, since a file can
-/// grow while it is read.
+/// The file is opened without blocking (`O_NONBLOCK`): opening a FIFO otherwise waits for a
+/// writer, which would hang the binary for good. What was opened is then looked at (so a path
+/// swapped for a FIFO between a look and the open changes nothing), and the read stops one
+/// byte past the cap, since a file can grow while it is read.
+#[cfg(feature = "fs")]
 pub fn read_file(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
+    use std::os::unix::fs::OpenOptionsExt;
     let refuse = |what: String| io::Error::new(io::ErrorKind::InvalidInput, what);
-    let check = |meta: &std::fs::Metadata| {
-        if !meta.is_file() {
-            return Err(refuse("not a regular file".into()));
-        }
-        if meta.len() > max_bytes {
-            return Err(refuse(format!(
-                "{} bytes, more than the {max_bytes} read",
-                meta.len()
-            )));
-        }
-        Ok(meta.len())
-    };
-    check(&std::fs::metadata(path)?)?;
-    let file = std::fs::File::open(path)?;
-    let len = check(&file.metadata()?)?;
-    let mut bytes = Vec::with_capacity(len as usize);
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(refuse("not a regular file".into()));
+    }
+    if meta.len() > max_bytes {
+        return Err(refuse(format!(
+            "{} bytes, more than the {max_bytes} read",
+            meta.len()
+        )));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
     file.take(max_bytes + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > max_bytes {
         return Err(refuse(format!("more than the {max_bytes} bytes read")));
@@ -42,7 +45,7 @@ pub fn read_file(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "fs"))]
 mod tests {
     use super::*;
 

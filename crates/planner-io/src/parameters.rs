@@ -561,9 +561,14 @@ fn adopt_plugin_keys(id: &str, block: &Value, planning: &mut Mapping, warnings: 
                     serde_yaml::to_string(value).unwrap_or_default().trim_end()
                 ));
             }
-            Some(own) if own != value => warnings.push(format!(
-                "`{id}.{key}` ignored: the top-level value is set and wins"
-            )),
+            // Equal as numbers too: `1` and `1.0` are one tolerance.
+            Some(own)
+                if own != value && own.as_f64().zip(value.as_f64()).is_none_or(|(a, b)| a != b) =>
+            {
+                warnings.push(format!(
+                    "`{id}.{key}` ignored: the top-level value is set and wins"
+                ))
+            }
             Some(_) => {}
         }
     }

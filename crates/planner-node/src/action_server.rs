@@ -205,6 +205,12 @@ pub async fn serve<G, R, F, Run, Fut>(
                     continue;
                 }
             };
+            // Under Preemption::Queue the turn is taken here, in arrival order: a goal that finds
+            // it free runs, even if a newer goal comes before its task has started.
+            let held = match preemption {
+                Preemption::Queue => turn.clone().try_lock_owned().ok(),
+                Preemption::Newest => None,
+            };
             // Only a goal that runs preempts the running one.
             let number = stops.newest.fetch_add(1, Ordering::SeqCst) + 1;
             let id = executing.goal_id();
@@ -221,20 +227,27 @@ pub async fn serve<G, R, F, Run, Fut>(
             let waiting = stop.clone();
             let running = run(s.clone(), o.clone(), goal, stop, feedback);
             let (server, stops, turn) = (server.clone(), stops.clone(), turn.clone());
+            let shared = s.clone();
             tokio::spawn(async move {
-                let _turn = match preemption {
-                    Preemption::Newest => None,
-                    Preemption::Queue => match wait_for_turn(&turn, &waiting).await {
-                        Ok(held) => Some(held),
-                        Err(status) => {
-                            info!("{name}: goal {}", waiting_end(status));
-                            send_result(name, &server, executing, status, R::default()).await;
-                            stops.cancelled.lock().expect("lock").remove(&id);
-                            return;
+                let turn = match (preemption, held) {
+                    (Preemption::Newest, _) => None,
+                    (Preemption::Queue, Some(held)) => Some(held),
+                    (Preemption::Queue, None) => {
+                        match wait_for_turn(&turn, &waiting, &shared).await {
+                            Ok(held) => Some(held),
+                            Err((status, why)) => {
+                                info!("{name}: goal {why}");
+                                send_result(name, &server, executing, status, R::default()).await;
+                                stops.cancelled.lock().expect("lock").remove(&id);
+                                return;
+                            }
                         }
-                    },
+                    }
                 };
                 let (status, result) = running.await;
+                // The next goal runs while this one's client comes for its result (which may
+                // take up to RESULT_TIMEOUT, or never come).
+                drop(turn);
                 send_result(name, &server, executing, status, result).await;
                 // After the result, not before: until it is sent the goal still counts as
                 // running, and a cancel then would be remembered for ever.
@@ -250,32 +263,39 @@ pub async fn serve<G, R, F, Run, Fut>(
 const TURN_POLL: Duration = Duration::from_millis(10);
 
 /// Waits until the goal of `stop` may run (the turn is free) and returns the turn, held until
-/// the goal's end; or how the goal ends without running: aborted when a newer goal has come
-/// meanwhile (the newest waits, as Nav2's pending slot holds one), canceled when its client
-/// cancelled it.
+/// the goal's run ends; or how the goal ends without running, and why: aborted when a newer
+/// goal has come meanwhile (the newest waits, as Nav2's pending slot holds one) or the node
+/// was deactivated (as Nav2's deactivated server ends its pending goal), canceled when its
+/// client cancelled it. (The goal shows EXECUTING while it waits: ros2-client sends a result
+/// only for an executing goal.)
 async fn wait_for_turn(
     turn: &Arc<tokio::sync::Mutex<()>>,
     stop: &GoalStop,
-) -> Result<tokio::sync::OwnedMutexGuard<()>, GoalEndStatus> {
+    s: &Shared,
+) -> Result<tokio::sync::OwnedMutexGuard<()>, (GoalEndStatus, &'static str)> {
     loop {
         if stop.replaced() {
-            return Err(GoalEndStatus::Aborted);
+            return Err((
+                GoalEndStatus::Aborted,
+                "replaced by a newer goal while it waited for the running one: aborted",
+            ));
+        }
+        if s.refusal().is_some() {
+            return Err((
+                GoalEndStatus::Aborted,
+                "ended while it waited for the running one: the node was deactivated",
+            ));
         }
         if stop.cancelled() {
-            return Err(GoalEndStatus::Canceled);
+            return Err((
+                GoalEndStatus::Canceled,
+                "canceled while it waited for the running one",
+            ));
         }
         if let Ok(held) = turn.clone().try_lock_owned() {
             return Ok(held);
         }
         tokio::time::sleep(TURN_POLL).await;
-    }
-}
-
-/// How a goal that never ran ended, for the log.
-fn waiting_end(status: GoalEndStatus) -> &'static str {
-    match status {
-        GoalEndStatus::Canceled => "canceled while it waited for the running one",
-        _ => "replaced by a newer goal while it waited for the running one: aborted",
     }
 }
 

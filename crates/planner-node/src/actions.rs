@@ -1,8 +1,8 @@
 //! Nav2's planner-server actions, so bt_navigator and nav2_simple_commander (`getPath`,
 //! `getPathThroughPoses`) can use this node in place of planner_server:
 //! `compute_path_to_pose` and `compute_path_through_poses` (nav2_msgs, Jazzy), with Nav2's error
-//! codes and messages, cancel, and preemption as planner_server does them (a newer goal ends the
-//! running one, which is aborted). Each answer also goes out on `/plan` and `/diagnostics`, as a
+//! codes and messages, cancel, and a newer goal as planner_server takes it (it waits for the
+//! running one, and an older goal still waiting ends aborted: `Preemption::Queue`). Each answer also goes out on `/plan` and `/diagnostics`, as a
 //! goal on `/goal_pose` does; the actions plan only, they do not drive.
 
 use crate::action_server::GoalStop;
@@ -179,6 +179,7 @@ async fn run_goal<G: PlannerGoal>(
     match &outcome.result {
         Err(f) if f.code == ResultCode::Cancelled => {
             o.diagnose(s, &outcome).await;
+            // A cancel (planner goals wait for each other: none is preempted).
             let why = stop.reason();
             info!("{}: {why}", G::NAME);
             (

@@ -6,8 +6,9 @@
 //! WaitAtWaypoint) and, with `input_at_waypoint`, waited at for a word from the inspection done
 //! there (Nav2's InputAtWaypoint); `number_of_loops` more passes follow, the first starting at
 //! `goal_index` as Nav2's does. A waypoint that cannot be planned to or reached in time is reported
-//! missed (its index in the request and the planner's Nav2 code) and the patrol goes on, or ends
-//! aborted with `stop_on_failure`. Cancel stops the planning of the leg and the robot, within the
+//! missed (its index in the request and the planner's Nav2 code; at most [`MAX_MISSED`] listed)
+//! and the patrol goes on, or ends aborted with `stop_on_failure`; a pass that reaches none of
+//! its waypoints ends it (TASK_EXECUTOR_FAILED). Cancel stops the planning of the leg and the robot, within the
 //! acceleration limits.
 
 use crate::action_server::{Feedback, GoalStop, Preemption};
@@ -202,8 +203,9 @@ async fn patrol(
                         goal: goal.poses[i].clone(),
                         error_code: code,
                     });
-                } else if result.missed_waypoints.len() == MAX_MISSED {
-                    warn!("follow_waypoints: {MAX_MISSED} missed waypoints listed; later misses are only logged");
+                    if result.missed_waypoints.len() == MAX_MISSED {
+                        warn!("follow_waypoints: {MAX_MISSED} missed waypoints listed; later misses are only logged");
+                    }
                 }
             };
             match drive_to(

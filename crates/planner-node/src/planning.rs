@@ -95,9 +95,13 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
     let leg_started = Cell::new(t0);
     // Deactivating the node (lifecycle) ends a plan under way, as planner_server's deactivated
     // action server ends its goal: stopped as a cancel is, answered below as NOT_ACTIVE.
-    let deactivated = || s.refusal().is_some();
+    // Remembered: a node deactivated and activated again within the plan still ends it so.
+    let deactivated = Cell::new(false);
     let interrupt = || {
-        if cancelled() || deactivated() {
+        if s.refusal().is_some() {
+            deactivated.set(true);
+        }
+        if cancelled() || deactivated.get() {
             Some(Interrupt::Cancelled)
         } else if budget.is_some_and(|b| leg_started.get().elapsed() >= b) {
             Some(Interrupt::Deadline)
@@ -129,8 +133,15 @@ pub fn plan(s: &Shared, request: Request<'_>) -> Outcome {
         }
         other => other,
     };
-    // No plan of a node deactivated meanwhile is answered or published.
-    if let Some(refusal) = s.refusal() {
+    // No plan of a node deactivated meanwhile is answered or published (nor an anytime
+    // planner's best so far, which an interrupt leaves it).
+    if deactivated.get() || s.refusal().is_some() {
+        let refusal = s.refusal().unwrap_or_else(|| {
+            Failure::new(
+                ResultCode::NotActive,
+                "the node was deactivated while it planned",
+            )
+        });
         return Outcome {
             elapsed_ms,
             ..failed(refusal)
