@@ -2,8 +2,9 @@
 //! `getPathThroughPoses`) can use this node in place of planner_server:
 //! `compute_path_to_pose` and `compute_path_through_poses` (nav2_msgs, Jazzy), with Nav2's error
 //! codes and messages, cancel, and a newer goal as planner_server takes it (it waits for the
-//! running one, and an older goal still waiting ends aborted: `Preemption::Queue`). Each answer also goes out on `/plan` and `/diagnostics`, as a
-//! goal on `/goal_pose` does; the actions plan only, they do not drive.
+//! running one, and an older goal still waiting ends aborted: `Preemption::Queue`). Each answer
+//! also goes out on `/plan` and `/diagnostics`, as a goal on `/goal_pose` does; the actions plan
+//! only, they do not drive.
 
 use crate::action_server::GoalStop;
 use crate::action_server::Preemption;

@@ -8,8 +8,8 @@
 //! `goal_index` as Nav2's does. A waypoint that cannot be planned to or reached in time is reported
 //! missed (its index in the request and the planner's Nav2 code; at most [`MAX_MISSED`] listed)
 //! and the patrol goes on, or ends aborted with `stop_on_failure`; a pass that reaches none of
-//! its waypoints ends it (TASK_EXECUTOR_FAILED). Cancel stops the planning of the leg and the robot, within the
-//! acceleration limits.
+//! its waypoints ends it (TASK_EXECUTOR_FAILED). Cancel stops the planning of the leg and the
+//! robot, within the acceleration limits.
 
 use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::actions::nav2_code;
