@@ -213,6 +213,11 @@ async fn run_goal<G: PlannerGoal>(
     }
 }
 
+/// The most poses a path handed to the node (`follow_path`, `is_path_valid`) may have: a
+/// million-pose path would be 100 km at Nav2's 0.1 m spacing; the bound keeps a malformed one
+/// from costing the node its memory.
+pub const MAX_GIVEN_PATH_POSES: usize = 1_000_000;
+
 /// The indices of the poses of `path` (map frame, metres) the robot cannot be at or reach from
 /// the pose before: a pose outside the map or in an obstacle or the inflated band, or one the
 /// segment from its predecessor reaches only through an obstacle. Nav2's `is_path_valid` asks the
@@ -244,9 +249,10 @@ pub fn invalid_poses(grid: &planner_core::grid::PlanningGrid, path: &[(f64, f64)
 /// the current map and the robot's inflation, from the pose nearest the robot on (the part
 /// already driven may have been blocked since, and does not matter), the indices those of the
 /// whole path. An empty path is invalid, as in Nav2. Invalid too, with no indices and the
-/// reason logged: a path in another frame, a path of more than [`MAX_POSES`] poses (refused
-/// unchecked, as `follow_path` refuses it), or a node that is not active or has no map. The
-/// check runs off the async threads: a long path on a fine map is many line-of-sight walks.
+/// reason logged: a path in another frame, a path of more than [`MAX_GIVEN_PATH_POSES`] poses
+/// (refused unchecked, as `follow_path` refuses it), or a node that is not active or has no
+/// map. The check runs off the async threads: a long path on a fine map is many line-of-sight
+/// walks.
 pub async fn serve_is_path_valid(
     s: Arc<Shared>,
     server: ros_edge::service::ServiceServer<
@@ -254,7 +260,6 @@ pub async fn serve_is_path_valid(
         patrol_msgs::nav2_msgs::IsPathValidResponse,
     >,
 ) {
-    use crate::follow_path::MAX_POSES;
     use patrol_msgs::nav2_msgs::IsPathValidResponse;
     loop {
         let (id, req) = server.next_request().await;
@@ -264,9 +269,9 @@ pub async fn serve_is_path_valid(
             Some(f.message)
         } else if poses.is_empty() {
             Some("the path is empty".into())
-        } else if poses.len() > MAX_POSES {
+        } else if poses.len() > MAX_GIVEN_PATH_POSES {
             Some(format!(
-                "{} poses, more than the {MAX_POSES} checked",
+                "{} poses, more than the {MAX_GIVEN_PATH_POSES} checked",
                 poses.len()
             ))
         } else if !frame.is_empty() && frame != s.params.global_frame {

@@ -22,7 +22,7 @@
 //! (bt_navigator's tree does).
 
 use crate::action_server::{Feedback, GoalStop, Preemption};
-use crate::actions::invalid_poses;
+use crate::actions::{invalid_poses, MAX_GIVEN_PATH_POSES as MAX_POSES};
 use crate::drive::{action_end, watch_followed, Progress};
 use crate::localization::compose;
 use crate::outputs::Outputs;
@@ -41,10 +41,6 @@ const UNKNOWN: u16 = 100;
 const INVALID_CONTROLLER: u16 = 101;
 const TF_ERROR: u16 = 102;
 const INVALID_PATH: u16 = 103;
-
-/// The most poses a path may have: a million-pose path would be 100 km at Nav2's 0.1 m spacing;
-/// the bound keeps a malformed one from costing the node its memory.
-pub const MAX_POSES: usize = 1_000_000;
 
 /// How far (m) the path's first pose may be from the robot: the follower drives along a path,
 /// it does not plan its way onto one.
