@@ -108,13 +108,10 @@ const MAX_TIMEOUT: f64 = 2.0;
 /// short enough that the car does stop when commands stop, the geometry positive.
 fn check(params: &Params) -> Result<()> {
     let within = |v: f64, lo: f64, hi: f64| v > lo && v <= hi;
-    if !params.limits.is_within_rated() {
-        let r = TwistLimits::RATED;
-        bail!(
-            "limits must be positive and within the car's rated limits: max_linear {} m/s, max_angular {} rad/s, max_linear_accel {} m/s^2, max_angular_accel {} rad/s^2",
-            r.max_linear, r.max_angular, r.max_linear_accel, r.max_angular_accel
-        );
-    }
+    params
+        .limits
+        .check_rated("limits")
+        .map_err(anyhow::Error::msg)?;
     if !within(params.cmd_timeout, 0.0, MAX_TIMEOUT)
         || !within(params.feedback_timeout, 0.0, MAX_TIMEOUT)
         || !within(params.reconnect_interval, 0.0, 60.0)

@@ -73,6 +73,19 @@ impl TwistLimits {
         self.is_valid() && self.tighter(&Self::RATED) == *self
     }
 
+    /// [`TwistLimits::is_within_rated`], or why not in words, for limits read as `key` (the
+    /// node's `twist_limits`, the bridge's `limits`).
+    pub fn check_rated(&self, key: &str) -> Result<(), String> {
+        if self.is_within_rated() {
+            return Ok(());
+        }
+        let r = Self::RATED;
+        Err(format!(
+            "{key} must be positive and within the car's rated limits: max_linear {} m/s, max_angular {} rad/s, max_linear_accel {} m/s^2, max_angular_accel {} rad/s^2",
+            r.max_linear, r.max_angular, r.max_linear_accel, r.max_angular_accel
+        ))
+    }
+
     /// These limits with the top linear speed lowered to `max_linear` (a speed limit), no
     /// faster than the robot can brake: from `previous`, over `dt` seconds, the top speed falls
     /// by at most `max_linear_accel * dt`. A limit that drops below the speed being driven is

@@ -330,13 +330,7 @@ impl NodeParams {
     /// Checks the values serde cannot: limits, rates and the transform.
     pub fn validate(&self) -> Result<(), String> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !self.twist_limits.is_within_rated() {
-            let r = TwistLimits::RATED;
-            return Err(format!(
-                "twist_limits must be positive and within the car's rated limits: max_linear {} m/s, max_angular {} rad/s, max_linear_accel {} m/s^2, max_angular_accel {} rad/s^2",
-                r.max_linear, r.max_angular, r.max_linear_accel, r.max_angular_accel
-            ));
-        }
+        self.twist_limits.check_rated("twist_limits")?;
         if !positive(self.control_rate_hz)
             || self.control_rate_hz > 200.0
             || !positive(self.pose_timeout)
