@@ -60,8 +60,6 @@ pub fn serve(
             which,
             server,
         ));
-    }
-    for &which in mine {
         clear_service::<ClearEntireCostmapRequest>(node, naming, tasks, which)?;
         clear_service::<ClearCostmapAroundRobotRequest>(node, naming, tasks, which)?;
         clear_service::<ClearCostmapExceptRegionRequest>(node, naming, tasks, which)?;
