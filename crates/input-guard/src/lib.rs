@@ -1,8 +1,8 @@
 //! What every patrol-planner binary reads from a user's file passes here first, so that no file
 //! can hang a binary or exhaust its memory: [`read_file`] reads a regular file of bounded size
-//! (refusing a FIFO, a device or a directory before opening it), and [`yaml::check`] refuses
-//! YAML text nested deeper than any parameter, map or route file needs, before a parser spends
-//! minutes on it. The planner's loaders (planner-io) and the chassis bridge's parameter file
+//! (opened without blocking; a FIFO, a device or a directory is refused unread), and
+//! [`yaml::check`] refuses YAML text nested deeper than any parameter, map or route file needs,
+//! before a parser spends minutes on it. The planner's loaders (planner-io) and the chassis bridge's parameter file
 //! (ros-edge) both read through it.
 
 pub mod yaml;
