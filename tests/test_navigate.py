@@ -22,6 +22,7 @@ FollowPath's codes: an unknown controller id (101), a frame the node cannot plac
 into a cabinet or starting metres from the car (103)."""
 import contextlib
 import math
+import time
 
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Twist
@@ -53,7 +54,34 @@ def car_on_the_bundled_map(tmp_path, offset, name):
         ros.node.create_subscription(Odometry, "/odom", odom.append, 100)
         ros.node.create_subscription(Twist, "/cmd_vel", cmds.append, 100)
         ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
+        wait_robot_pose_known(ros)
         yield ros, odom, cmds
+
+
+def wait_robot_pose_known(ros, timeout=30):
+    """Waits until the node plans from the robot's pose. The test's /odom reader can match the
+    chassis before the node's does; a goal sent in between is refused with TF_ERROR (202, "no
+    robot pose yet"), as planner_server refuses one before the robot's transform exists (CI once,
+    in the follow_path test). nav2_simple_commander's waitUntilNav2Active likewise waits for the
+    robot's pose before the first goal. Any other refusal fails here."""
+    planner = ActionClient(ros.node, ComputePathToPose, "compute_path_to_pose")
+    ros.wait_action_answers(planner, ComputePathToPose.Goal(goal=stamped(*NEAR, frame="nowhere")),
+                            "the compute_path_to_pose action")
+    deadline = time.time() + timeout
+    while True:
+        sent = planner.send_goal_async(ComputePathToPose.Goal(goal=stamped(*NEAR)))
+        handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the pose probe")
+        assert handle.accepted
+        result = handle.get_result_async()
+        ros.spin_until(result.done, 30, "the pose probe's result")
+        r = result.result()
+        if r.status == GoalStatus.STATUS_SUCCEEDED:
+            planner.destroy()
+            return
+        assert r.result.error_code == ComputePathToPose.Result.TF_ERROR, \
+            f"a plan from the robot's pose: {r.result.error_code} {r.result.error_msg}"
+        assert time.time() < deadline, f"the node has no robot pose {timeout} s after /odom arrived"
+        ros.spin_for(0.2)
 
 
 def assert_within_limits(cmds):
