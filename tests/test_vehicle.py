@@ -64,7 +64,13 @@ def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(r
     ros.map_pub.publish(msg)
     ros.spin_until(lambda: len(odom) > 10, 45, "/odom from the simulated chassis")
 
-    # Send the goal until the node has the map and answers with a plan to it.
+    # Both directions matched first (send_goal_until_planned's reason: one lost discovery
+    # exchange under load delays a match by 10-20 s; a run once timed out here after 40 s with
+    # no plan, and which direction was missing went unsaid), then the goal is sent until the
+    # node has the map and answers with a plan to it.
+    ros.wait_matched(ros.goal_pub, "/goal_pose")
+    ros.spin_until(lambda: ros.plan_sub.get_publisher_count() > 0, 45, "the node's /plan to match")
+
     def planned():
         before = len(ros.plans)
         ros.goal_pub.publish(stamped(*GOAL, yaw=math.pi / 2))
