@@ -266,8 +266,9 @@ const TURN_POLL: Duration = Duration::from_millis(10);
 /// the goal's run ends; or how the goal ends without running, and why: aborted when a newer
 /// goal has come meanwhile (the newest waits, as Nav2's pending slot holds one) or the node
 /// was deactivated (as Nav2's deactivated server ends its pending goal), canceled when its
-/// client cancelled it. (The goal shows EXECUTING while it waits: ros2-client sends a result
-/// only for an executing goal.)
+/// client cancelled it. The goal shows EXECUTING while it waits, as planner_server's pending
+/// goal does (nav2_util's SimpleActionServer accepts every goal with ACCEPT_AND_EXECUTE); and
+/// ros2-client sends a result only for an executing goal.
 async fn wait_for_turn(
     turn: &Arc<tokio::sync::Mutex<()>>,
     stop: &GoalStop,
