@@ -284,4 +284,37 @@ def test_with_use_sim_time_the_node_stamps_with_the_simulations_clock(tmp_path):
         ros.close()
         stop_binary(proc)
 
+
+
+def test_every_params_file_and_p_override_applies_as_launch_ros_passes_them(tmp_path):
+    """launch_ros turns `parameters=[nav2_params.yaml, {...}]` into one --params-file each (the
+    dict as a `/**` block) and `ros2 run ... -p name:=value` adds overrides: rclcpp applies every
+    file in order, then every -p. Asked through the node's parameter services as `ros2 param
+    get` asks: the -p wins over both files, the second file over the first, and a key only the
+    second file sets is read."""
+    from rcl_interfaces.srv import GetParameters
+
+    from conftest import call_service
+
+    params = tmp_path / "params.yaml"
+    params.write_text(PARAMS.replace("patience: 0}", "patience: 0, safety_weight: 0.1}") + "    tolerance: 0.3\n")
+    launch = tmp_path / "launch_params.yaml"
+    launch.write_text("/**:\n  ros__parameters:\n    tolerance: 0.4\n    planner: any_angle\n"
+                      "    swarm: {safety_weight: 0.25}\n")
+    domain = domain_id(97)
+    proc = start_node(domain, params, "nav2_params_files_test.log",
+                      ["--params-file", str(launch), "-p", "planner:=imga", "-p", "swarm.safety_weight:=0.5"])
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        asked = call_service(ros, GetParameters, "/patrol_planner/get_parameters",
+                             GetParameters.Request(names=["planner", "tolerance", "swarm.safety_weight"]))
+        planner, tolerance, safety = asked.values
+        assert planner.string_value == "imga", "the -p over both files"
+        assert tolerance.double_value == 0.4, "the second file over the first"
+        assert safety.double_value == 0.5, "the -p over a nested key both files set"
+    finally:
+        ros.close()
+        stop_binary(proc)
+
+
 assert LATCHED  # the latched profile the session uses (kept imported for pyflakes' sake)

@@ -16,7 +16,7 @@
 //! file's `chassis_bridge: ros__parameters:` block is read strictly: an unknown key, at the top
 //! or in a section, is an error naming it and the file.
 
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use chassis::kinematics::DiffDrive;
 use chassis::limits::TwistLimits;
 use chassis::watchdog::{Verdict, Watchdog};
@@ -36,6 +36,7 @@ use ros2_client::{
     MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
 };
 use serde::Deserialize;
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -87,14 +88,16 @@ impl Default for Params {
 }
 
 fn load() -> Result<Params> {
-    for unread in ros_edge::unread_args() {
+    let line = ros_edge::command_line::CommandLine::from_env("chassis_bridge")
+        .map_err(|e| anyhow!("command line: {e}"))?;
+    for unread in line.unread_by_a_one_file_reader() {
         log::warn!("command line: {unread}");
     }
-    let (path, explicit) = ros_edge::params_file("config/chassis.yaml");
-    let params: Params = if explicit || path.exists() {
-        ros_edge::parameters::read(&path, "chassis_bridge")?
-    } else {
-        Params::default()
+    let default = Path::new("config/chassis.yaml");
+    let params: Params = match line.params_files.first() {
+        Some(path) => ros_edge::parameters::read(path, "chassis_bridge")?,
+        None if default.exists() => ros_edge::parameters::read(default, "chassis_bridge")?,
+        None => Params::default(),
     };
     check(&params)?;
     Ok(params)

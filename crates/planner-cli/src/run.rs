@@ -24,7 +24,7 @@ pub fn load_config(path: Option<&Path>) -> Result<PlannerConfig> {
         Some(p) => {
             let file = planner_io::parameters::load_parameter_file(p)?;
             for w in &file.warnings {
-                eprintln!("warning: {}: {w}", p.display());
+                eprintln!("warning: {w}");
             }
             file.planning
         }

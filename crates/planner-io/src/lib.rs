@@ -33,6 +33,10 @@ pub enum LoadError {
     },
     #[error("{path}: {message}")]
     Config { path: PathBuf, message: String },
+    /// Parameters merged from several sources (parameter files, `-p` overrides), named together
+    /// (`a.yaml + b.yaml + -p`), as the merged block is at fault rather than one file.
+    #[error("{sources}: {message}")]
+    Parameters { sources: String, message: String },
 }
 
 /// The largest file read (bytes): a map of the cell cap (100 M cells) as a 16-bit PGM is 200 MB.
@@ -101,34 +105,36 @@ pub fn load_scenario_file(path: &Path) -> Result<(ScenarioFile, PathBuf), LoadEr
     Ok((file, map_path))
 }
 
-/// The `ros__parameters` block of `node_name` in a ROS 2 parameter file (Nav2's layout), as YAML.
-/// A fully qualified name (`/robot1/planner_server`) is found as one key or nested by namespace.
-pub fn load_ros_parameters(path: &Path, node_name: &str) -> Result<serde_yaml::Value, LoadError> {
+/// A ROS 2 parameter file (Nav2's layout) as a YAML document, read once for every block looked
+/// up in it ([`ros_parameters`]): through [`read`], and refused before parsing when nested too
+/// deep.
+pub fn load_ros_parameter_file(path: &Path) -> Result<serde_yaml::Value, LoadError> {
     let text = read(path)?;
-    input_guard::yaml::check(&text).map_err(|message| LoadError::Config {
+    let config_err = |message: String| LoadError::Config {
         path: path.to_owned(),
         message,
-    })?;
-    let doc: serde_yaml::Value = serde_yaml::from_slice(&text).map_err(|e| LoadError::Config {
-        path: path.to_owned(),
-        message: e.to_string(),
-    })?;
-    // `/ns/node` as one key, or nested as Nav2's launch writes a namespaced file (`ns: node:`);
-    // a node in the root namespace is found by its plain name, which callers try next.
+    };
+    input_guard::yaml::check(&text).map_err(config_err)?;
+    serde_yaml::from_slice(&text).map_err(|e| config_err(e.to_string()))
+}
+
+/// The `ros__parameters` block of `node_name` in a parameter file's document, if it has one. A
+/// fully qualified name (`/robot1/planner_server`) is found as one key or nested by namespace
+/// (`robot1: planner_server:`, as Nav2's launch writes a namespaced file); a node in the root
+/// namespace is found by its plain name, which callers try next.
+pub fn ros_parameters<'a>(
+    doc: &'a serde_yaml::Value,
+    node_name: &str,
+) -> Option<&'a serde_yaml::Value> {
     let segments: Vec<&str> = node_name.split('/').filter(|s| !s.is_empty()).collect();
     let nested = || {
         (node_name.starts_with('/') && segments.len() > 1)
-            .then(|| segments.iter().try_fold(&doc, |v, segment| v.get(segment)))
+            .then(|| segments.iter().try_fold(doc, |v, segment| v.get(segment)))
             .flatten()
     };
     doc.get(node_name)
         .or_else(nested)
         .and_then(|n| n.get("ros__parameters"))
-        .cloned()
-        .ok_or_else(|| LoadError::Config {
-            path: path.to_owned(),
-            message: format!("no `{node_name}: ros__parameters:` block"),
-        })
 }
 
 /// The planning part of a parameter file, validated: the `patrol_planner` block's planning keys.

@@ -13,7 +13,7 @@ use planner_core::PlannerName;
 use serde::{Deserialize, Serialize};
 use serde_yaml::{Mapping, Value};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The node name whose block the file holds.
 pub const NODE_NAME: &str = "patrol_planner";
@@ -552,7 +552,7 @@ fn adopt_plugin_keys(id: &str, block: &Value, planning: &mut Mapping, warnings: 
                 section.insert(Value::from(key), value.clone());
                 warnings.push(format!(
                     "`{key}` from `{id}`: {} (the block of the first planner_plugins id)",
-                    serde_yaml::to_string(value).unwrap_or_default().trim_end()
+                    yaml_text(value)
                 ));
             }
             // Equal as numbers too: `1` and `1.0` are one tolerance.
@@ -585,6 +585,81 @@ fn merge_into(base: &mut Mapping, over: Mapping) {
     }
 }
 
+/// A YAML value as one line of a message (`astar`, `0.5`, `[GridBased, Smooth]`).
+fn yaml_text(value: &Value) -> String {
+    serde_yaml::to_string(value)
+        .unwrap_or_default()
+        .trim_end()
+        .to_owned()
+}
+
+/// One file's block for the node (see [`load_parameters_for`]): its own block with the
+/// wildcard's known keys under it, a relative `map_yaml` joined to the file's folder; `None`
+/// when the file has neither. The file is read and parsed once for all the names looked up.
+fn file_block<'n>(
+    path: &Path,
+    node_names: &[&'n str],
+    planning_keys: &[String],
+    node_keys: &[String],
+    warnings: &mut Vec<String>,
+) -> Result<Option<(&'n str, Mapping)>, LoadError> {
+    let config_err = |message: String| LoadError::Config {
+        path: path.to_owned(),
+        message,
+    };
+    let doc = crate::load_ros_parameter_file(path)?;
+    let block_of = |name: &str| match crate::ros_parameters(&doc, name) {
+        None => Ok(None),
+        Some(Value::Mapping(m)) => Ok(Some(m.clone())),
+        Some(Value::Null) => Ok(Some(Mapping::new())),
+        Some(other) => Err(config_err(format!(
+            "`{name}: ros__parameters:` is not a mapping but {other:?}"
+        ))),
+    };
+    let wildcard = match node_names.contains(&WILDCARD) {
+        true => block_of(WILDCARD)?,
+        false => None,
+    };
+    let mut own = None;
+    for name in node_names.iter().filter(|n| **n != WILDCARD) {
+        if let Some(block) = block_of(name)? {
+            own = Some((*name, block));
+            break;
+        }
+    }
+    let (name, mut block) = match (own, wildcard) {
+        (Some((name, own)), Some(wildcard)) => {
+            let mut merged = Mapping::new();
+            for (key, value) in wildcard {
+                let k = key.as_str().unwrap_or_default();
+                let known = planning_keys.iter().chain(node_keys).any(|n| n == k)
+                    || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k);
+                if known {
+                    merged.insert(key, value);
+                } else {
+                    warnings.push(format!(
+                        "{}: ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)",
+                        path.display()
+                    ));
+                }
+            }
+            merge_into(&mut merged, own);
+            (name, merged)
+        }
+        (Some(own), None) => own,
+        (None, Some(wildcard)) => (WILDCARD, wildcard),
+        (None, None) => return Ok(None),
+    };
+    if let Some(Value::String(map)) = block.get("map_yaml") {
+        if !map.is_empty() && Path::new(map).is_relative() {
+            let resolved = path.parent().unwrap_or(Path::new(".")).join(map);
+            let resolved = Value::from(resolved.to_string_lossy().into_owned());
+            block.insert(Value::from("map_yaml"), resolved);
+        }
+    }
+    Ok(Some((name, block)))
+}
+
 /// A whole parameter file: the planning part and the node's own.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ParameterFile {
@@ -614,74 +689,101 @@ pub fn load_parameter_file(path: &Path) -> Result<ParameterFile, LoadError> {
 }
 
 /// The same for a node that may run under another name (`-r __node:=planner_server -r
-/// __ns:=/robot1`): the first block the file has among `node_names` (say the fully qualified
-/// name, the plain name, then `patrol_planner`) is the node's, and rclcpp's wildcard `/**`, when
-/// `node_names` has it, applies under it as rclcpp applies every block that matches a node: its
-/// keys are the node's unless its own block sets them (a launch's `/**: use_sim_time: true`).
-/// The wildcard's keys this node does not know are meant for other nodes: ignored with a
-/// warning, where the node's own block refuses them. A file with only the wildcard's block is
-/// read as the node's own.
+/// __ns:=/robot1`): see [`load_parameters_for`], with this one file and no overrides.
 pub fn load_parameter_file_for(
     path: &Path,
     node_names: &[&str],
 ) -> Result<ParameterFile, LoadError> {
-    let config_err = |message: String| LoadError::Config {
-        path: path.to_owned(),
-        message,
-    };
-    let mapping = |name: &str, block: Value| match block {
-        Value::Mapping(m) => Ok(m),
-        Value::Null => Ok(Mapping::new()),
-        other => Err(config_err(format!(
-            "`{name}: ros__parameters:` is not a mapping but {other:?}"
-        ))),
-    };
-    let block_of = |name: &str| match crate::load_ros_parameters(path, name) {
-        Ok(block) => mapping(name, block).map(Some),
-        Err(LoadError::Config { message, .. }) if message.starts_with("no `") => Ok(None),
-        Err(e) => Err(e),
-    };
-    let wildcard = match node_names.contains(&WILDCARD) {
-        true => block_of(WILDCARD)?,
-        false => None,
-    };
-    let mut own = None;
-    for name in node_names.iter().filter(|n| **n != WILDCARD) {
-        if let Some(block) = block_of(name)? {
-            own = Some((*name, block));
-            break;
+    load_parameters_for(&[path], &[], node_names)
+}
+
+/// A node's parameters from every `--params-file` and `-p name:=value` its command line gives,
+/// applied in rclcpp's order: each file's block over the previous files' (a later file's keys
+/// win, sections merged key by key, as launch_ros passes `parameters=[nav2_params.yaml,
+/// {'use_sim_time': True}]` as two files), then each override (a dotted name sets a nested key:
+/// `swarm.safety_weight`). The merged block is then read and validated as one file's would be;
+/// an error names the files (and the `-p` that set an unknown key), a warning its source.
+///
+/// In each file, the first block among `node_names` (say the fully qualified name, the plain
+/// name, then `patrol_planner`) is the node's, and rclcpp's wildcard `/**`, when `node_names` has
+/// it, applies under it as rclcpp applies every block that matches a node: its keys are the
+/// node's unless its own block sets them (a launch's `/**: use_sim_time: true`). The wildcard's
+/// keys this node does not know are meant for other nodes: ignored with a warning, where the
+/// node's own block refuses them. A file with only the wildcard's block is read as the node's
+/// own; a relative `map_yaml` is taken from the folder of the file that names it. With several
+/// files, one without a block for the node is passed over with a warning; with one, or when no
+/// file has a block, it is an error.
+pub fn load_parameters_for(
+    files: &[&Path],
+    overrides: &[(String, Value)],
+    node_names: &[&str],
+) -> Result<ParameterFile, LoadError> {
+    // What the errors and warnings of the merged block name: the one file, or every source.
+    let sources = match (files, overrides.is_empty()) {
+        ([one], true) => one.display().to_string(),
+        _ => {
+            let mut named: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+            if !overrides.is_empty() {
+                named.push("-p".into());
+            }
+            named.join(" + ")
         }
-    }
+    };
+    let config_err = |message: String| match (files, overrides.is_empty()) {
+        ([one], true) => LoadError::Config {
+            path: one.to_path_buf(),
+            message,
+        },
+        _ => LoadError::Parameters {
+            sources: sources.clone(),
+            message,
+        },
+    };
     let planning_keys = keys(&PlannerConfig::default());
     let node_keys = keys(&NodeParams::default());
     let mut warnings = Vec::new();
-    let (node_name, block) = match (own, wildcard) {
-        (Some((name, own)), Some(wildcard)) => {
-            let mut merged = Mapping::new();
-            for (key, value) in wildcard {
-                let k = key.as_str().unwrap_or_default();
-                let known = planning_keys.iter().chain(&node_keys).any(|n| n == k)
-                    || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k);
-                if known {
-                    merged.insert(key, value);
-                } else {
-                    warnings.push(format!(
-                        "ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)"
-                    ));
-                }
+    let mut block = Mapping::new();
+    let mut node_name = None;
+    for path in files {
+        match file_block(path, node_names, &planning_keys, &node_keys, &mut warnings)? {
+            Some((name, own)) => {
+                node_name.get_or_insert(name);
+                merge_into(&mut block, own);
             }
-            merge_into(&mut merged, own);
-            (name, merged)
+            None if files.len() > 1 => warnings.push(format!(
+                "{}: no `<node>: ros__parameters:` block for any of {}: nothing read from it",
+                path.display(),
+                node_names.join(", ")
+            )),
+            None => {}
         }
-        (Some((name, own)), None) => (name, own),
-        (None, Some(wildcard)) => (WILDCARD, wildcard),
-        (None, None) => {
+    }
+    let node_name = match node_name {
+        Some(name) => name,
+        None if files.is_empty() => NODE_NAME,
+        None => {
             return Err(config_err(format!(
                 "no `<node>: ros__parameters:` block for any of {}",
                 node_names.join(", ")
             )))
         }
     };
+    // The top-level key each override set, for an unknown key's error.
+    let mut set_by = BTreeMap::new();
+    for (name, value) in overrides {
+        let mut nested = value.clone();
+        for segment in name.rsplit('.') {
+            let mut m = Mapping::new();
+            m.insert(Value::from(segment), nested);
+            nested = Value::Mapping(m);
+        }
+        if let Value::Mapping(m) = nested {
+            merge_into(&mut block, m);
+        }
+        let top = name.split('.').next().unwrap_or_default();
+        set_by.insert(top.to_owned(), format!("-p {name}:={}", yaml_text(value)));
+    }
+    let block_warnings_from = warnings.len();
     // Nav2's plugin ids, whose blocks are keys of their own names.
     let plugin_ids: Vec<String> = match block.get("planner_plugins") {
         None => NodeParams::default().planner_plugins,
@@ -714,9 +816,13 @@ pub fn load_parameter_file_for(
         } else {
             let mut valid = planning_keys.clone();
             valid.extend(node_keys.iter().cloned());
+            let place = match set_by.get(name) {
+                Some(given) => format!("set by `{given}`"),
+                None => format!("in `{node_name}: ros__parameters:`"),
+            };
             return Err(config_err(format!(
-                "unknown parameter `{}` in `{node_name}: ros__parameters:`; valid: {}",
-                serde_yaml::to_string(&key).unwrap_or_default().trim_end(),
+                "unknown parameter `{}` {place}; valid: {}",
+                yaml_text(&key),
                 valid.join(", ")
             )));
         }
@@ -753,16 +859,9 @@ pub fn load_parameter_file_for(
         serde_path_to_error::deserialize(Value::Mapping(node)).map_err(typed)?;
     node.plugin_planners = plugin_planners;
     node.validate().map_err(config_err)?;
-    if !node.map_yaml.is_empty() {
-        let p = PathBuf::from(&node.map_yaml);
-        if p.is_relative() {
-            node.map_yaml = path
-                .parent()
-                .unwrap_or(Path::new("."))
-                .join(p)
-                .to_string_lossy()
-                .into_owned();
-        }
+    // The merged block's warnings name its sources; each file's own already name the file.
+    for w in &mut warnings[block_warnings_from..] {
+        *w = format!("{sources}: {w}");
     }
     Ok(ParameterFile {
         planning,
@@ -774,6 +873,7 @@ pub fn load_parameter_file_for(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     /// A file of this text in the tests' folder (one per process; each test its own names).
     fn write_file(name: &str, text: &str) -> PathBuf {
@@ -782,6 +882,116 @@ mod tests {
         let p = dir.join(name);
         std::fs::write(&p, text).unwrap();
         p
+    }
+
+    /// launch_ros's `parameters=[nav2_params.yaml, {'use_sim_time': True}]` reaches a node as two
+    /// files, and `-p` comes over both: a later file's keys win (sections merged key by key),
+    /// each file's relative map_yaml is taken from its own folder, the overrides come last,
+    /// dotted for nested keys; warnings name their file.
+    #[test]
+    fn files_then_overrides_in_rclcpps_order() {
+        let base = write(
+            "multi_base.yaml",
+            "    planner: astar\n    tolerance: 0.3\n    map_yaml: maps/a.yaml\n    \
+             swarm: {population: 30, patience: 5, iterations: 50}\n",
+        );
+        let dir = base.parent().unwrap().join("launch");
+        std::fs::create_dir_all(&dir).unwrap();
+        let dict = dir.join("multi_dict.yaml");
+        std::fs::write(
+            &dict,
+            "/**:\n  ros__parameters:\n    use_sim_time: true\n    controller_frequency: 20.0\n\
+             patrol_planner:\n  ros__parameters:\n    planner: any_angle\n    \
+             map_yaml: b.yaml\n    swarm: {patience: 7}\n",
+        )
+        .unwrap();
+        let other = write_file(
+            "multi_other.yaml",
+            "controller_server:\n  ros__parameters: {}\n",
+        );
+        let yaml = |t: &str| serde_yaml::from_str::<Value>(t).unwrap();
+        let overrides = [
+            ("swarm.population".to_owned(), yaml("40")),
+            ("tolerance".to_owned(), yaml("0.5")),
+            ("planner".to_owned(), yaml("imga")),
+        ];
+        let names = [NODE_NAME, WILDCARD];
+        let file = load_parameters_for(&[&base, &dict, &other], &overrides, &names).unwrap();
+        assert_eq!(file.planning.planner.to_string(), "imga", "-p comes last");
+        assert_eq!(file.planning.tolerance, 0.5);
+        let swarm = &file.planning.swarm;
+        assert_eq!(
+            (swarm.population, swarm.patience, swarm.iterations),
+            (40, 7, 50)
+        );
+        assert!(file.node.use_sim_time, "the second file's key");
+        assert_eq!(file.node.map_yaml, dir.join("b.yaml").to_string_lossy());
+        let warned = file.warnings.join("\n");
+        assert!(
+            warned.contains(&format!(
+                "{}: ignored `/**` key `controller_frequency`",
+                dict.display()
+            )),
+            "{warned}"
+        );
+        assert!(
+            warned.contains(&format!(
+                "{}: no `<node>: ros__parameters:` block",
+                other.display()
+            )),
+            "{warned}"
+        );
+        // Without the second file, the first file's map from its own folder.
+        let alone = load_parameters_for(&[&base], &overrides, &names).unwrap();
+        assert_eq!(
+            alone.node.map_yaml,
+            base.parent().unwrap().join("maps/a.yaml").to_string_lossy()
+        );
+        assert_eq!(alone.planning.swarm.patience, 5);
+        // Overrides alone (no file) set keys over the defaults.
+        let bare = load_parameters_for(&[], &overrides, &names).unwrap();
+        assert_eq!(bare.planning.tolerance, 0.5);
+        assert_eq!(bare.planning.swarm.population, 40);
+    }
+
+    /// What the merged block gets wrong is refused naming every source; an unknown key set by
+    /// `-p` names that `-p`; no block in any file is an error.
+    #[test]
+    fn a_bad_override_or_no_block_is_refused_naming_the_sources() {
+        let base = write("multi_refused.yaml", "    planner: astar\n");
+        let yaml = |t: &str| serde_yaml::from_str::<Value>(t).unwrap();
+        let names = [NODE_NAME, WILDCARD];
+        let unknown = load_parameters_for(&[&base], &[("planer".into(), yaml("astar"))], &names)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            unknown.contains("unknown parameter `planer` set by `-p planer:=astar`"),
+            "{unknown}"
+        );
+        assert!(
+            unknown.starts_with(&format!("{} + -p: ", base.display())),
+            "{unknown}"
+        );
+        let typed =
+            load_parameters_for(&[&base], &[("swarm.population".into(), yaml("-5"))], &names)
+                .unwrap_err()
+                .to_string();
+        assert!(typed.contains("parameter `swarm.population`"), "{typed}");
+        let invalid = load_parameters_for(&[&base], &[("tolerance".into(), yaml("-1.0"))], &names)
+            .unwrap_err()
+            .to_string();
+        assert!(invalid.contains("tolerance"), "{invalid}");
+        let other = write_file(
+            "multi_none.yaml",
+            "controller_server:\n  ros__parameters: {}\n",
+        );
+        let none = load_parameters_for(&[&other, &other], &[], &names)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            none.contains("no `<node>: ros__parameters:` block for any of"),
+            "{none}"
+        );
     }
 
     /// The file `name` with `block` is refused, its error naming `word`.

@@ -1,9 +1,10 @@
 //! `patrol_planner`: the ROS 2 global planner node. See `node.rs` for its topics and `README.md`
 //! for how to run it beside a ROS 2 stack.
 //!
-//! Usage: `patrol_planner [--params-file FILE]` (also after `--ros-args`, as `ros2 run` passes
-//! it). Default: `config/planner.yaml` if it exists, else built-in defaults. Log level from
-//! `RUST_LOG` (default info).
+//! Usage: `patrol_planner [--params-file FILE] [--ros-args [-r FROM:=TO] [--params-file FILE]
+//! [-p NAME:=VALUE]]`, as `ros2 run` and launch_ros pass them: every parameter file in order, then
+//! every `-p` over them, as rclcpp applies them. Default: `config/planner.yaml` if it exists, else
+//! built-in defaults. Log level from `RUST_LOG` (default info).
 
 mod action_server;
 mod actions;
@@ -29,34 +30,52 @@ mod planning;
 mod result;
 mod state;
 
-use planner_io::parameters::{load_parameter_file_for, ParameterFile};
+use planner_io::parameters::{load_parameters_for, ParameterFile};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     // The node's own records (and, at debug level, the planners' notes; /diagnostics carries
     // them always) also go to /rosout once the node exists.
     ros_edge::logging::init(&["patrol_planner", "planner_core", "planner_io"]);
-    let naming = match ros_edge::naming::Naming::from_env("patrol_planner") {
-        Ok(n) => n,
+    let line = match ros_edge::command_line::CommandLine::from_env("patrol_planner") {
+        Ok(line) => line,
         Err(e) => {
             log::error!("command line: {e}");
             return ExitCode::FAILURE;
         }
     };
-    for unread in ros_edge::unread_args() {
-        log::warn!("command line: {unread}");
+    // Every --params-file in order (config/planner.yaml when none is given and it exists),
+    // then every -p over them, as rclcpp applies them.
+    let default = Path::new("config/planner.yaml");
+    let mut files: Vec<&Path> = line.params_files.iter().map(PathBuf::as_path).collect();
+    if files.is_empty() && default.exists() {
+        files.push(default);
     }
-    let (path, explicit) = ros_edge::params_file("config/planner.yaml");
-    let params = if explicit || path.exists() {
-        // The block of the node's own name (as a Nav2 params file has `planner_server:`), else
-        // patrol_planner's, with rclcpp's wildcard `/**` applied under it.
+    let overrides: Vec<(String, serde_yaml::Value)> = line
+        .overrides
+        .iter()
+        .map(|o| (o.name.clone(), o.value.clone()))
+        .collect();
+    let params = if files.is_empty() && overrides.is_empty() {
+        log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
+        ParameterFile::default()
+    } else {
+        // In each file, the block of the node's own name (as a Nav2 params file has
+        // `planner_server:`), else patrol_planner's, with rclcpp's wildcard `/**` under it.
+        let naming = &line.naming;
         let full = naming.node_path();
         let names = [full.as_str(), naming.node.as_str(), "/**", "patrol_planner"];
-        match load_parameter_file_for(&path, &names) {
+        match load_parameters_for(&files, &overrides, &names) {
             Ok(p) => {
-                log::info!("parameters from {}", path.display());
+                for f in &files {
+                    log::info!("parameters from {}", f.display());
+                }
+                for o in &line.overrides {
+                    log::info!("parameter override {}", o.given);
+                }
                 for w in &p.warnings {
-                    log::warn!("{}: {w}", path.display());
+                    log::warn!("{w}");
                 }
                 p
             }
@@ -66,11 +85,8 @@ fn main() -> ExitCode {
                 return ExitCode::FAILURE;
             }
         }
-    } else {
-        log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
-        ParameterFile::default()
     };
-    match ros_edge::run_ros(node::run(params, naming)) {
+    match ros_edge::run_ros(node::run(params, line.naming)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             log::error!("{e:#}");

@@ -65,7 +65,9 @@ fn result_code(e: &LoadError) -> u8 {
         LoadError::Io { .. } => LoadMapResponse::RESULT_MAP_DOES_NOT_EXIST,
         LoadError::Map { .. } => LoadMapResponse::RESULT_INVALID_MAP_METADATA,
         LoadError::MapImage { .. } => LoadMapResponse::RESULT_INVALID_MAP_DATA,
-        LoadError::Config { .. } => LoadMapResponse::RESULT_UNDEFINED_FAILURE,
+        LoadError::Config { .. } | LoadError::Parameters { .. } => {
+            LoadMapResponse::RESULT_UNDEFINED_FAILURE
+        }
     }
 }
 

@@ -1,10 +1,11 @@
 //! What every patrol-planner ROS 2 binary (the node, the chassis bridge) does at its edge, written
-//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the `--params-file` argument, header stamps
-//! from the system clock (or `/clock`, with `use_sim_time`), SIGINT and SIGTERM, the reliable QoS
-//! profile set explicitly on every topic (ros2-client's defaults differ from rclpy's), logging to
-//! the terminal and `/rosout`, reading a node's block of a ROS 2 parameter file (`parameters`),
-//! and serving a ROS 2 service (`service`).
+//! once: a DDS context on the user's `ROS_DOMAIN_ID`, the command line (`command_line`: names,
+//! parameter files, `-p` overrides), header stamps from the system clock (or `/clock`, with
+//! `use_sim_time`), SIGINT and SIGTERM, the reliable QoS profile set explicitly on every topic
+//! (ros2-client's defaults differ from rclpy's), logging to the terminal and `/rosout`, reading a
+//! node's block of a ROS 2 parameter file (`parameters`), and serving a ROS 2 service (`service`).
 
+pub mod command_line;
 pub mod logging;
 pub mod naming;
 pub mod parameters;
@@ -16,7 +17,6 @@ use patrol_msgs::geometry_msgs::Quaternion;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{Context, ContextOptions, QosProfile};
 use std::future::Future;
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::time::{SystemTime, UNIX_EPOCH};
 use tokio::signal::unix::{signal, Signal, SignalKind};
@@ -39,52 +39,6 @@ pub fn context() -> Result<(Context, u16)> {
     let context =
         Context::with_options(ContextOptions::new().domain_id(domain)).context("starting DDS")?;
     Ok((context, domain))
-}
-
-/// The parameter file: `--params-file FILE` (anywhere on the command line, so also after
-/// `--ros-args` as `ros2 run` passes it), else `default`. The flag says whether it was given.
-pub fn params_file(default: &str) -> (PathBuf, bool) {
-    let args: Vec<String> = std::env::args().collect();
-    match args.windows(2).find(|w| w[0] == "--params-file") {
-        Some(w) => (PathBuf::from(&w[1]), true),
-        None => (PathBuf::from(default), false),
-    }
-}
-
-/// What of the command line a binary reads past, in words, for a warning each: rclcpp would
-/// apply `-p name:=value` (`--param`) and every further `--params-file`, and a user who gave
-/// them should learn that they did nothing, not find out from the robot.
-pub fn unread_args() -> Vec<String> {
-    unread_args_in(std::env::args().skip(1))
-}
-
-fn unread_args_in(args: impl IntoIterator<Item = String>) -> Vec<String> {
-    let mut unread = Vec::new();
-    let (mut in_ros_args, mut files) = (false, 0);
-    let mut args = args.into_iter();
-    while let Some(arg) = args.next() {
-        match arg.as_str() {
-            "--ros-args" => in_ros_args = true,
-            "--" => in_ros_args = false,
-            "--params-file" => {
-                files += 1;
-                let file = args.next().unwrap_or_default();
-                if files > 1 {
-                    unread.push(format!(
-                        "--params-file {file}: only the first --params-file is read; put its keys in that one"
-                    ));
-                }
-            }
-            "-p" | "--param" if in_ros_args => {
-                let rule = args.next().unwrap_or_default();
-                unread.push(format!(
-                    "{arg} {rule}: parameters are read from the --params-file only; set it there, or with `ros2 param set` once running"
-                ));
-            }
-            _ => {}
-        }
-    }
-    unread
 }
 
 /// Whether header stamps come from `/clock` ([`use_sim_time`]) instead of the system clock.
@@ -185,19 +139,6 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `-p` and a second `--params-file` are named; remaps, the first file and the arguments
-    /// before `--ros-args` are not.
-    #[test]
-    fn what_is_read_past_is_named() {
-        let args = "--params-file a.yaml -p x --ros-args -r __ns:=/r1 -p planner:=astar \
-                    --param seed:=3 --params-file b.yaml --log-level debug";
-        let unread = unread_args_in(args.split_whitespace().map(String::from));
-        assert_eq!(unread.len(), 3, "{unread:?}");
-        assert!(unread[0].starts_with("-p planner:=astar"), "{unread:?}");
-        assert!(unread[1].starts_with("--param seed:=3"), "{unread:?}");
-        assert!(unread[2].starts_with("--params-file b.yaml"), "{unread:?}");
-    }
 
     /// With sim time on, a stamp is the latest /clock's to the nanosecond (zero before the
     /// first). The only test in this binary that turns sim time on, as it is process-wide.

@@ -19,44 +19,17 @@ pub struct Naming {
 }
 
 impl Naming {
-    /// From the process's command line, with `default_node` unless `__node` is remapped.
-    pub fn from_env(default_node: &str) -> Result<Self, String> {
-        Self::from_args(std::env::args().skip(1), default_node)
-    }
-
-    /// From arguments: only those after `--ros-args` (up to a `--`) are read; `-r`/`--remap`
-    /// takes `from:=to`. Other ROS arguments (`--params-file`, `-p`, `--log-level`) are skipped.
-    pub fn from_args(
-        args: impl IntoIterator<Item = String>,
-        default_node: &str,
-    ) -> Result<Self, String> {
-        let mut naming = Naming {
+    /// `default_node` in the root namespace, no remaps: what a command line without `-r`
+    /// rules gives ([`crate::command_line::CommandLine`] adds them).
+    pub fn new(default_node: &str) -> Self {
+        Naming {
             node: default_node.into(),
             namespace: "/".into(),
             remaps: Vec::new(),
-        };
-        let mut in_ros_args = false;
-        let mut args = args.into_iter();
-        while let Some(arg) = args.next() {
-            match arg.as_str() {
-                "--ros-args" => in_ros_args = true,
-                "--" => in_ros_args = false,
-                "-r" | "--remap" if in_ros_args => {
-                    let rule = args
-                        .next()
-                        .ok_or_else(|| format!("`{arg}` needs a rule `from:=to`"))?;
-                    let (from, to) = rule
-                        .split_once(":=")
-                        .ok_or_else(|| format!("remap rule `{rule}` is not `from:=to`"))?;
-                    naming.add_rule(from.trim(), to.trim())?;
-                }
-                _ => {}
-            }
         }
-        Ok(naming)
     }
 
-    fn add_rule(&mut self, from: &str, to: &str) -> Result<(), String> {
+    pub(crate) fn add_rule(&mut self, from: &str, to: &str) -> Result<(), String> {
         let valid = |s: &str| {
             !s.is_empty()
                 && s.chars()
@@ -130,9 +103,12 @@ impl Naming {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::command_line::CommandLine;
 
     fn naming(args: &str) -> Naming {
-        Naming::from_args(args.split_whitespace().map(String::from), "patrol_planner").unwrap()
+        CommandLine::from_args(args.split_whitespace().map(String::from), "patrol_planner")
+            .unwrap()
+            .naming
     }
 
     #[test]
@@ -151,13 +127,7 @@ mod tests {
         assert_eq!(n.resolve("odom"), "/robot1/wheel_odom");
         let parsed = n.name("~/make_plan").unwrap();
         assert_eq!(parsed.to_string(), "/robot1/planner_server/make_plan");
-        // Remaps outside --ros-args are not ROS arguments; bad rules are refused.
+        // Remaps outside --ros-args are not ROS arguments (bad rules: command_line's tests).
         assert_eq!(naming("-r __node:=x").node, "patrol_planner");
-        assert!(
-            Naming::from_args(["--ros-args".into(), "-r".into(), "nonsense".into()], "n").is_err()
-        );
-        assert!(
-            Naming::from_args(["--ros-args".into(), "-r".into(), "a b:=c".into()], "n").is_err()
-        );
     }
 }
