@@ -286,32 +286,38 @@ def test_with_use_sim_time_the_node_stamps_with_the_simulations_clock(tmp_path):
 
 
 
-def test_every_params_file_and_p_override_applies_as_launch_ros_passes_them(tmp_path):
-    """launch_ros turns `parameters=[nav2_params.yaml, {...}]` into one --params-file each (the
-    dict as a `/**` block) and `ros2 run ... -p name:=value` adds overrides: rclcpp applies every
-    file in order, then every -p. Asked through the node's parameter services as `ros2 param
-    get` asks: the -p wins over both files, the second file over the first, and a key only the
-    second file sets is read."""
+def test_params_files_and_p_rules_apply_with_rclcpps_precedence(tmp_path):
+    """launch_ros turns `parameters=[nav2_params.yaml, {...}]` into one --params-file each, and
+    `ros2 run ... --ros-args -p name:=value` adds rules: the node applies them as rclcpp does
+    (rclcpp#1094), every `/**` value (a file's `/**` block, a -p without a node name) in
+    command-line order, then the node's own (its block in a file, a -p with its name) over them.
+    Asked through the node's parameter services, as `ros2 param get` asks; the -p that its own
+    block overrides is named in a warning, as a user would otherwise not learn why it did
+    nothing."""
     from rcl_interfaces.srv import GetParameters
 
-    from conftest import call_service
+    from conftest import ROOT, call_service
 
     params = tmp_path / "params.yaml"
-    params.write_text(PARAMS.replace("patience: 0}", "patience: 0, safety_weight: 0.1}") + "    tolerance: 0.3\n")
+    params.write_text(PARAMS.replace("patience: 0}", "patience: 0, safety_weight: 0.1}"))
     launch = tmp_path / "launch_params.yaml"
-    launch.write_text("/**:\n  ros__parameters:\n    tolerance: 0.4\n    planner: any_angle\n"
-                      "    swarm: {safety_weight: 0.25}\n")
+    launch.write_text("/**:\n  ros__parameters:\n    tolerance: 0.4\n"
+                      "patrol_planner:\n  ros__parameters:\n    swarm: {safety_weight: 0.25}\n")
     domain = domain_id(97)
-    proc = start_node(domain, params, "nav2_params_files_test.log",
-                      ["--params-file", str(launch), "-p", "planner:=imga", "-p", "swarm.safety_weight:=0.5"])
+    log = "nav2_params_files_test.log"
+    proc = start_node(domain, params, log,
+                      ["--params-file", str(launch), "-p", "tolerance:=0.45", "-p", "planner:=any_angle",
+                       "-p", "patrol_planner:swarm.safety_weight:=0.5"])
     ros = Ros(domain, context=rclpy.Context())
     try:
         asked = call_service(ros, GetParameters, "/patrol_planner/get_parameters",
                              GetParameters.Request(names=["planner", "tolerance", "swarm.safety_weight"]))
         planner, tolerance, safety = asked.values
-        assert planner.string_value == "imga", "the -p over both files"
-        assert tolerance.double_value == 0.4, "the second file over the first"
-        assert safety.double_value == 0.5, "the -p over a nested key both files set"
+        assert tolerance.double_value == 0.45, "a plain -p after the second file's /** value"
+        assert planner.string_value == "astar", "the node's own block over a plain -p, as rclcpp"
+        assert safety.double_value == 0.5, "the node's -p over both files' node blocks"
+        warned = (ROOT / "target" / log).read_text()
+        assert "`-p planner:=any_angle` is overridden by the node's own block" in warned, warned
     finally:
         ros.close()
         stop_binary(proc)

@@ -94,7 +94,7 @@ fn load() -> Result<Params> {
         log::warn!("command line: {unread}");
     }
     let default = Path::new("config/chassis.yaml");
-    let params: Params = match line.params_files.first() {
+    let params: Params = match line.params_files().next() {
         Some(path) => ros_edge::parameters::read(path, "chassis_bridge")?,
         None if default.exists() => ros_edge::parameters::read(default, "chassis_bridge")?,
         None => Params::default(),

@@ -593,28 +593,34 @@ fn yaml_text(value: &Value) -> String {
         .to_owned()
 }
 
-/// One file's block for the node (see [`load_parameters_for`]): its own block with the
-/// wildcard's known keys under it, a relative `map_yaml` joined to the file's folder; `None`
-/// when the file has neither. The file is read and parsed once for all the names looked up.
-fn file_block<'n>(
-    path: &Path,
-    node_names: &[&'n str],
-    planning_keys: &[String],
-    node_keys: &[String],
-    warnings: &mut Vec<String>,
-) -> Result<Option<(&'n str, Mapping)>, LoadError> {
+/// One file's blocks for the node (see [`load_parameters_for`]): rclcpp's wildcard `/**` (when
+/// `node_names` has it) and the first of the node's own names it has, each with a relative
+/// `map_yaml` joined to the file's folder. The file is read and parsed once for every name.
+fn file_blocks<'n>(path: &Path, node_names: &[&'n str]) -> Result<FileBlocks<'n>, LoadError> {
     let config_err = |message: String| LoadError::Config {
         path: path.to_owned(),
         message,
     };
     let doc = crate::load_ros_parameter_file(path)?;
-    let block_of = |name: &str| match crate::ros_parameters(&doc, name) {
-        None => Ok(None),
-        Some(Value::Mapping(m)) => Ok(Some(m.clone())),
-        Some(Value::Null) => Ok(Some(Mapping::new())),
-        Some(other) => Err(config_err(format!(
-            "`{name}: ros__parameters:` is not a mapping but {other:?}"
-        ))),
+    let block_of = |name: &str| {
+        let mut block = match crate::ros_parameters(&doc, name) {
+            None => return Ok(None),
+            Some(Value::Mapping(m)) => m.clone(),
+            Some(Value::Null) => Mapping::new(),
+            Some(other) => {
+                return Err(config_err(format!(
+                    "`{name}: ros__parameters:` is not a mapping but {other:?}"
+                )))
+            }
+        };
+        if let Some(Value::String(map)) = block.get("map_yaml") {
+            if !map.is_empty() && Path::new(map).is_relative() {
+                let resolved = path.parent().unwrap_or(Path::new(".")).join(map);
+                let resolved = Value::from(resolved.to_string_lossy().into_owned());
+                block.insert(Value::from("map_yaml"), resolved);
+            }
+        }
+        Ok(Some(block))
     };
     let wildcard = match node_names.contains(&WILDCARD) {
         true => block_of(WILDCARD)?,
@@ -627,37 +633,63 @@ fn file_block<'n>(
             break;
         }
     }
-    let (name, mut block) = match (own, wildcard) {
-        (Some((name, own)), Some(wildcard)) => {
-            let mut merged = Mapping::new();
-            for (key, value) in wildcard {
-                let k = key.as_str().unwrap_or_default();
-                let known = planning_keys.iter().chain(node_keys).any(|n| n == k)
-                    || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k);
-                if known {
-                    merged.insert(key, value);
-                } else {
-                    warnings.push(format!(
-                        "{}: ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)",
-                        path.display()
-                    ));
-                }
-            }
-            merge_into(&mut merged, own);
-            (name, merged)
-        }
-        (Some(own), None) => own,
-        (None, Some(wildcard)) => (WILDCARD, wildcard),
-        (None, None) => return Ok(None),
-    };
-    if let Some(Value::String(map)) = block.get("map_yaml") {
-        if !map.is_empty() && Path::new(map).is_relative() {
-            let resolved = path.parent().unwrap_or(Path::new(".")).join(map);
-            let resolved = Value::from(resolved.to_string_lossy().into_owned());
-            block.insert(Value::from("map_yaml"), resolved);
-        }
+    Ok(FileBlocks { wildcard, own })
+}
+
+/// What [`file_blocks`] finds in one file.
+struct FileBlocks<'n> {
+    wildcard: Option<Mapping>,
+    own: Option<(&'n str, Mapping)>,
+}
+
+/// One source of a node's parameters, as its command line gives them, in order.
+#[derive(Clone, Copy, Debug)]
+pub enum ParameterSource<'a> {
+    /// A `--params-file`.
+    File(&'a Path),
+    /// A `-p [node:]name:=value`: the node prefix if one was written, the dotted name, the
+    /// value, and the rule as written (for messages).
+    Override {
+        node: Option<&'a str>,
+        name: &'a str,
+        value: &'a Value,
+        given: &'a str,
+    },
+}
+
+/// `value` under the dotted `name` (`swarm.safety_weight`) as a mapping to merge.
+fn nested(name: &str, value: &Value) -> Mapping {
+    let mut nested = value.clone();
+    for segment in name.rsplit('.') {
+        let mut m = Mapping::new();
+        m.insert(Value::from(segment), nested);
+        nested = Value::Mapping(m);
     }
-    Ok(Some((name, block)))
+    match nested {
+        Value::Mapping(m) => m,
+        _ => Mapping::new(),
+    }
+}
+
+/// Whether `mapping` sets the dotted `name`.
+fn sets(mapping: &Mapping, name: &str) -> bool {
+    let mut segments = name.split('.');
+    let Some(first) = segments.next() else {
+        return false;
+    };
+    let mut at = mapping.get(first);
+    for segment in segments {
+        at = at.and_then(|v| v.get(segment));
+    }
+    at.is_some()
+}
+
+/// A ROS name as rclcpp keys a node's parameters: fully qualified (`/planner_server`).
+fn qualified(name: &str) -> String {
+    match name.starts_with('/') {
+        true => name.to_owned(),
+        false => format!("/{name}"),
+    }
 }
 
 /// A whole parameter file: the planning part and the node's own.
@@ -694,95 +726,171 @@ pub fn load_parameter_file_for(
     path: &Path,
     node_names: &[&str],
 ) -> Result<ParameterFile, LoadError> {
-    load_parameters_for(&[path], &[], node_names)
+    load_parameters_for(&[ParameterSource::File(path)], node_names)
 }
 
-/// A node's parameters from every `--params-file` and `-p name:=value` its command line gives,
-/// applied in rclcpp's order: each file's block over the previous files' (a later file's keys
-/// win, sections merged key by key, as launch_ros passes `parameters=[nav2_params.yaml,
-/// {'use_sim_time': True}]` as two files), then each override (a dotted name sets a nested key:
-/// `swarm.safety_weight`). The merged block is then read and validated as one file's would be;
-/// an error names the files (and the `-p` that set an unknown key), a warning its source.
+/// A node's parameters from every `--params-file` and `-p [node:]name:=value` of its command
+/// line, with rclcpp's precedence (rclcpp#1094, launch_ros' Node documentation): every value
+/// for the wildcard `/**` (a file's `/**` block, or a `-p` without a node prefix, which rcl
+/// files under `/**`) in command-line order, then every value for the node's own name (its block
+/// in a file, a `-p` prefixed with its name) over them, in command-line order. So launch_ros'
+/// `parameters=[nav2_params.yaml, {'use_sim_time': True}]`, two files, gives the second's
+/// use_sim_time; and a plain `-p planner:=astar` is overridden by a file's `patrol_planner:`
+/// block that sets `planner` (warned: write `-p patrol_planner:planner:=astar`, as a C++
+/// node would need too). Sections merge key by key; a dotted name is a nested key.
 ///
-/// In each file, the first block among `node_names` (say the fully qualified name, the plain
-/// name, then `patrol_planner`) is the node's, and rclcpp's wildcard `/**`, when `node_names` has
-/// it, applies under it as rclcpp applies every block that matches a node: its keys are the
-/// node's unless its own block sets them (a launch's `/**: use_sim_time: true`). The wildcard's
-/// keys this node does not know are meant for other nodes: ignored with a warning, where the
-/// node's own block refuses them. A file with only the wildcard's block is read as the node's
-/// own; a relative `map_yaml` is taken from the folder of the file that names it. With several
-/// files, one without a block for the node is passed over with a warning; with one, or when no
-/// file has a block, it is an error.
+/// A file's own block is the first it has among `node_names` (say the fully qualified name,
+/// the plain name, then `patrol_planner`). The merged values are read and validated as one
+/// file's block would be. When some file has a block of the node's own, the `/**` blocks' keys
+/// this node does not know are meant for other nodes: ignored with a warning, as rclcpp nodes
+/// ignore undeclared ones; without one, a `/**` block is read as the node's own (unknown keys
+/// refused). A `-p` is this node's, always: its unknown key is refused naming it, and a `-p` for
+/// another node's name is passed over with a warning. A relative `map_yaml` is taken from the
+/// folder of the file that names it (launch_ros writes a dict's file in the temporary folder:
+/// give a launch's map_yaml as an absolute path). With several files, one without a block for
+/// the node is passed over with a warning; with one, or when no file has a block, it is an
+/// error. An error of the merged values names every source, a warning its own.
 pub fn load_parameters_for(
-    files: &[&Path],
-    overrides: &[(String, Value)],
+    sources: &[ParameterSource<'_>],
     node_names: &[&str],
 ) -> Result<ParameterFile, LoadError> {
-    // What the errors and warnings of the merged block name: the one file, or every source.
-    let sources = match (files, overrides.is_empty()) {
-        ([one], true) => one.display().to_string(),
+    let files: Vec<&Path> = sources
+        .iter()
+        .filter_map(|s| match s {
+            ParameterSource::File(path) => Some(*path),
+            ParameterSource::Override { .. } => None,
+        })
+        .collect();
+    let any_override = files.len() < sources.len();
+    // What the errors and warnings of the merged values name: the one file, or every source.
+    let label = match (files.as_slice(), any_override) {
+        ([one], false) => one.display().to_string(),
         _ => {
             let mut named: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
-            if !overrides.is_empty() {
+            if any_override {
                 named.push("-p".into());
             }
             named.join(" + ")
         }
     };
-    let config_err = |message: String| match (files, overrides.is_empty()) {
-        ([one], true) => LoadError::Config {
+    let config_err = |message: String| match (files.as_slice(), any_override) {
+        ([one], false) => LoadError::Config {
             path: one.to_path_buf(),
             message,
         },
         _ => LoadError::Parameters {
-            sources: sources.clone(),
+            sources: label.clone(),
             message,
         },
     };
     let planning_keys = keys(&PlannerConfig::default());
     let node_keys = keys(&NodeParams::default());
     let mut warnings = Vec::new();
-    let mut block = Mapping::new();
-    let mut node_name = None;
-    for path in files {
-        match file_block(path, node_names, &planning_keys, &node_keys, &mut warnings)? {
-            Some((name, own)) => {
-                node_name.get_or_insert(name);
-                merge_into(&mut block, own);
+    // rclcpp's two layers, each in command-line order; where each wildcard key came from.
+    let (mut wildcard, mut own) = (Mapping::new(), Mapping::new());
+    let mut wildcard_from = BTreeMap::new();
+    let (mut node_name, mut any_block, mut empty) = (None, false, Vec::new());
+    // The top-level key each `-p` set (for an unknown key's error), and the plain ones.
+    let (mut set_by, mut plain) = (BTreeMap::new(), Vec::new());
+    let own_names: Vec<String> = node_names
+        .iter()
+        .filter(|n| **n != WILDCARD)
+        .map(|n| qualified(n))
+        .collect();
+    for source in sources {
+        match *source {
+            ParameterSource::File(path) => {
+                let blocks = file_blocks(path, node_names)?;
+                if blocks.wildcard.is_none() && blocks.own.is_none() {
+                    empty.push(path);
+                }
+                if let Some(w) = blocks.wildcard {
+                    for key in w.keys().filter_map(Value::as_str) {
+                        wildcard_from.insert(key.to_owned(), path.display().to_string());
+                    }
+                    merge_into(&mut wildcard, w);
+                    any_block = true;
+                }
+                if let Some((name, o)) = blocks.own {
+                    node_name.get_or_insert(name);
+                    merge_into(&mut own, o);
+                    any_block = true;
+                }
             }
-            None if files.len() > 1 => warnings.push(format!(
+            ParameterSource::Override {
+                node,
+                name,
+                value,
+                given,
+            } => {
+                // rcl files a rule without a node name under `/**`.
+                let plain_rule = match node.map(qualified) {
+                    None => true,
+                    Some(n) if n == WILDCARD => true,
+                    Some(n) if own_names.contains(&n) => false,
+                    Some(_) => {
+                        warnings.push(format!(
+                            "`{given}` is for another node: not applied (this node is {})",
+                            node_names.first().copied().unwrap_or(NODE_NAME)
+                        ));
+                        continue;
+                    }
+                };
+                let top = name.split('.').next().unwrap_or_default().to_owned();
+                if plain_rule {
+                    merge_into(&mut wildcard, nested(name, value));
+                    wildcard_from.remove(&top);
+                    plain.push((name, given));
+                } else {
+                    merge_into(&mut own, nested(name, value));
+                }
+                set_by.insert(top, given.to_owned());
+            }
+        }
+    }
+    if !files.is_empty() && !any_block {
+        return Err(config_err(format!(
+            "no `<node>: ros__parameters:` block for any of {}",
+            node_names.join(", ")
+        )));
+    }
+    if files.len() > 1 {
+        for path in empty {
+            warnings.push(format!(
                 "{}: no `<node>: ros__parameters:` block for any of {}: nothing read from it",
                 path.display(),
                 node_names.join(", ")
-            )),
-            None => {}
+            ));
         }
     }
-    let node_name = match node_name {
-        Some(name) => name,
-        None if files.is_empty() => NODE_NAME,
-        None => {
-            return Err(config_err(format!(
-                "no `<node>: ros__parameters:` block for any of {}",
-                node_names.join(", ")
-            )))
-        }
-    };
-    // The top-level key each override set, for an unknown key's error.
-    let mut set_by = BTreeMap::new();
-    for (name, value) in overrides {
-        let mut nested = value.clone();
-        for segment in name.rsplit('.') {
-            let mut m = Mapping::new();
-            m.insert(Value::from(segment), nested);
-            nested = Value::Mapping(m);
-        }
-        if let Value::Mapping(m) = nested {
-            merge_into(&mut block, m);
-        }
-        let top = name.split('.').next().unwrap_or_default();
-        set_by.insert(top.to_owned(), format!("-p {name}:={}", yaml_text(value)));
+    let node_name = node_name.unwrap_or(WILDCARD);
+    // With a block of the node's own somewhere, the wildcard's unknown keys from files are
+    // other nodes' (a `-p`'s stay, to be refused below).
+    if node_name != WILDCARD {
+        wildcard.retain(|key, _| {
+            let k = key.as_str().unwrap_or_default();
+            let known = planning_keys.iter().chain(&node_keys).any(|n| n == k)
+                || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k);
+            match (known, wildcard_from.get(k)) {
+                (false, Some(file)) => {
+                    warnings.push(format!(
+                        "{file}: ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)"
+                    ));
+                    false
+                }
+                _ => true,
+            }
+        });
     }
+    for (name, given) in plain {
+        if sets(&own, name) {
+            warnings.push(format!(
+                "`{given}` is overridden by the node's own block, as rclcpp applies a node's block over `/**` values and a -p without a node name: write `-p {node_name}:{name}:=...`"
+            ));
+        }
+    }
+    let mut block = wildcard;
+    merge_into(&mut block, own);
     let block_warnings_from = warnings.len();
     // Nav2's plugin ids, whose blocks are keys of their own names.
     let plugin_ids: Vec<String> = match block.get("planner_plugins") {
@@ -861,7 +969,7 @@ pub fn load_parameters_for(
     node.validate().map_err(config_err)?;
     // The merged block's warnings name its sources; each file's own already name the file.
     for w in &mut warnings[block_warnings_from..] {
-        *w = format!("{sources}: {w}");
+        *w = format!("{label}: {w}");
     }
     Ok(ParameterFile {
         planning,
@@ -884,12 +992,29 @@ mod tests {
         p
     }
 
-    /// launch_ros's `parameters=[nav2_params.yaml, {'use_sim_time': True}]` reaches a node as two
-    /// files, and `-p` comes over both: a later file's keys win (sections merged key by key),
-    /// each file's relative map_yaml is taken from its own folder, the overrides come last,
-    /// dotted for nested keys; warnings name their file.
+    /// A `-p` rule as the command line gives it.
+    fn rule<'a>(
+        node: Option<&'a str>,
+        name: &'a str,
+        value: &'a Value,
+        given: &'a str,
+    ) -> ParameterSource<'a> {
+        ParameterSource::Override {
+            node,
+            name,
+            value,
+            given,
+        }
+    }
+
+    /// rclcpp's precedence over files and `-p` rules: `/**` values (a file's wildcard block, a
+    /// `-p` without a node name) in command-line order, then the node's own (its block in a
+    /// file, a `-p` with its name) over them in order; sections merged key by key; each file's
+    /// relative map_yaml from its own folder; a rule for another node not applied; warnings
+    /// name their source. (launch_ros passes `parameters=[nav2_params.yaml, {...}]` as two
+    /// files.)
     #[test]
-    fn files_then_overrides_in_rclcpps_order() {
+    fn files_and_rules_apply_with_rclcpps_precedence() {
         let base = write(
             "multi_base.yaml",
             "    planner: astar\n    tolerance: 0.3\n    map_yaml: maps/a.yaml\n    \
@@ -909,83 +1034,142 @@ mod tests {
             "multi_other.yaml",
             "controller_server:\n  ros__parameters: {}\n",
         );
+        let late = write_file(
+            "multi_late.yaml",
+            "/**:\n  ros__parameters:\n    max_planning_time: 7.0\n    swarm: {iterations: 99}\n",
+        );
         let yaml = |t: &str| serde_yaml::from_str::<Value>(t).unwrap();
-        let overrides = [
-            ("swarm.population".to_owned(), yaml("40")),
-            ("tolerance".to_owned(), yaml("0.5")),
-            ("planner".to_owned(), yaml("imga")),
+        let (v40, v05, off, imga, ga) = (
+            yaml("40"),
+            yaml("0.5"),
+            yaml("false"),
+            yaml("imga"),
+            yaml("ga"),
+        );
+        let sources = [
+            ParameterSource::File(&base),
+            ParameterSource::File(&dict),
+            rule(None, "swarm.population", &v40, "-p swarm.population:=40"),
+            rule(None, "use_sim_time", &off, "-p use_sim_time:=false"),
+            ParameterSource::File(&other),
+            ParameterSource::File(&late),
+            rule(
+                Some("patrol_planner"),
+                "tolerance",
+                &v05,
+                "-p patrol_planner:tolerance:=0.5",
+            ),
+            rule(
+                Some("/patrol_planner"),
+                "planner",
+                &imga,
+                "-p /patrol_planner:planner:=imga",
+            ),
+            rule(
+                Some("planner_server"),
+                "planner",
+                &ga,
+                "-p planner_server:planner:=ga",
+            ),
         ];
-        let names = [NODE_NAME, WILDCARD];
-        let file = load_parameters_for(&[&base, &dict, &other], &overrides, &names).unwrap();
-        assert_eq!(file.planning.planner.to_string(), "imga", "-p comes last");
-        assert_eq!(file.planning.tolerance, 0.5);
+        let file = load_parameters_for(&sources, &[NODE_NAME, WILDCARD]).unwrap();
         let swarm = &file.planning.swarm;
         assert_eq!(
-            (swarm.population, swarm.patience, swarm.iterations),
-            (40, 7, 50)
+            file.planning.planner.to_string(),
+            "imga",
+            "the node's rule, not the other's"
         );
-        assert!(file.node.use_sim_time, "the second file's key");
+        assert_eq!(
+            file.planning.tolerance, 0.5,
+            "the node's rule after its blocks"
+        );
+        assert_eq!(swarm.population, 30, "the node's block over a plain -p");
+        assert_eq!(
+            swarm.patience, 7,
+            "the second file's block over the first's, key by key"
+        );
+        assert_eq!(
+            swarm.iterations, 50,
+            "the node's block over a later /** block"
+        );
+        assert_eq!(
+            file.planning.max_planning_time, 7.0,
+            "a /** key the node's blocks leave"
+        );
+        assert!(
+            !file.node.use_sim_time,
+            "a plain -p after the /** block that set it"
+        );
         assert_eq!(file.node.map_yaml, dir.join("b.yaml").to_string_lossy());
         let warned = file.warnings.join("\n");
-        assert!(
-            warned.contains(&format!(
+        for expected in [
+            format!(
                 "{}: ignored `/**` key `controller_frequency`",
                 dict.display()
-            )),
-            "{warned}"
-        );
-        assert!(
-            warned.contains(&format!(
-                "{}: no `<node>: ros__parameters:` block",
-                other.display()
-            )),
-            "{warned}"
-        );
-        // Without the second file, the first file's map from its own folder.
-        let alone = load_parameters_for(&[&base], &overrides, &names).unwrap();
+            ),
+            format!("{}: no `<node>: ros__parameters:` block", other.display()),
+            "`-p swarm.population:=40` is overridden by the node's own block".to_owned(),
+            "write `-p patrol_planner:swarm.population:=...`".to_owned(),
+            "`-p planner_server:planner:=ga` is for another node".to_owned(),
+        ] {
+            assert!(warned.contains(&expected), "{expected}\nin\n{warned}");
+        }
+        // One file: its map from its own folder, its block as it is.
+        let alone =
+            load_parameters_for(&[ParameterSource::File(&base)], &[NODE_NAME, WILDCARD]).unwrap();
         assert_eq!(
             alone.node.map_yaml,
             base.parent().unwrap().join("maps/a.yaml").to_string_lossy()
         );
         assert_eq!(alone.planning.swarm.patience, 5);
-        // Overrides alone (no file) set keys over the defaults.
-        let bare = load_parameters_for(&[], &overrides, &names).unwrap();
-        assert_eq!(bare.planning.tolerance, 0.5);
+        assert!(alone.warnings.is_empty(), "{:?}", alone.warnings);
+        // Rules alone (no file) set keys over the defaults.
+        let bare = load_parameters_for(&sources[2..3], &[NODE_NAME, WILDCARD]).unwrap();
         assert_eq!(bare.planning.swarm.population, 40);
     }
 
-    /// What the merged block gets wrong is refused naming every source; an unknown key set by
-    /// `-p` names that `-p`; no block in any file is an error.
+    /// What the merged values get wrong is refused naming every source; an unknown key set by
+    /// `-p` names that `-p` (a `-p` is this node's even without its name); no block in any file
+    /// is an error.
     #[test]
-    fn a_bad_override_or_no_block_is_refused_naming_the_sources() {
+    fn a_bad_rule_or_no_block_is_refused_naming_the_sources() {
         let base = write("multi_refused.yaml", "    planner: astar\n");
         let yaml = |t: &str| serde_yaml::from_str::<Value>(t).unwrap();
         let names = [NODE_NAME, WILDCARD];
-        let unknown = load_parameters_for(&[&base], &[("planer".into(), yaml("astar"))], &names)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            unknown.contains("unknown parameter `planer` set by `-p planer:=astar`"),
-            "{unknown}"
-        );
-        assert!(
-            unknown.starts_with(&format!("{} + -p: ", base.display())),
-            "{unknown}"
-        );
-        let typed =
-            load_parameters_for(&[&base], &[("swarm.population".into(), yaml("-5"))], &names)
+        let refused = |name: &str, value: &str| {
+            let value = yaml(value);
+            let given = format!("-p {name}:=...");
+            let sources = [
+                ParameterSource::File(&base),
+                rule(None, name, &value, &given),
+            ];
+            load_parameters_for(&sources, &names)
                 .unwrap_err()
-                .to_string();
-        assert!(typed.contains("parameter `swarm.population`"), "{typed}");
-        let invalid = load_parameters_for(&[&base], &[("tolerance".into(), yaml("-1.0"))], &names)
-            .unwrap_err()
-            .to_string();
-        assert!(invalid.contains("tolerance"), "{invalid}");
+                .to_string()
+        };
+        let prefix = format!("{} + -p: ", base.display());
+        let unknown = refused("planer", "astar");
+        assert!(unknown.starts_with(&prefix), "{unknown}");
+        assert!(
+            unknown.contains("unknown parameter `planer` set by `-p planer:=...`"),
+            "{unknown}"
+        );
+        let typed = refused("swarm.population", "-5");
+        assert!(
+            typed.starts_with(&prefix) && typed.contains("parameter `swarm.population`"),
+            "{typed}"
+        );
+        let invalid = refused("tolerance", "-1.0");
+        assert!(
+            invalid.starts_with(&prefix) && invalid.contains("tolerance"),
+            "{invalid}"
+        );
         let other = write_file(
             "multi_none.yaml",
             "controller_server:\n  ros__parameters: {}\n",
         );
-        let none = load_parameters_for(&[&other, &other], &[], &names)
+        let sources = [ParameterSource::File(&other), ParameterSource::File(&other)];
+        let none = load_parameters_for(&sources, &names)
             .unwrap_err()
             .to_string();
         assert!(

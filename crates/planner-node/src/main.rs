@@ -30,8 +30,9 @@ mod planning;
 mod result;
 mod state;
 
-use planner_io::parameters::{load_parameters_for, ParameterFile};
-use std::path::{Path, PathBuf};
+use planner_io::parameters::{load_parameters_for, ParameterFile, ParameterSource};
+use ros_edge::command_line::ParameterSource as CommandSource;
+use std::path::Path;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -45,19 +46,26 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    // Every --params-file in order (config/planner.yaml when none is given and it exists),
-    // then every -p over them, as rclcpp applies them.
+    // Every --params-file and -p in order (config/planner.yaml first when no file is given and
+    // it exists), applied with rclcpp's precedence (planner_io::parameters::load_parameters_for).
     let default = Path::new("config/planner.yaml");
-    let mut files: Vec<&Path> = line.params_files.iter().map(PathBuf::as_path).collect();
-    if files.is_empty() && default.exists() {
-        files.push(default);
-    }
-    let overrides: Vec<(String, serde_yaml::Value)> = line
-        .overrides
+    let mut sources: Vec<ParameterSource> = line
+        .parameters
         .iter()
-        .map(|o| (o.name.clone(), o.value.clone()))
+        .map(|p| match p {
+            CommandSource::File(f) => ParameterSource::File(f),
+            CommandSource::Override(o) => ParameterSource::Override {
+                node: o.node.as_deref(),
+                name: &o.name,
+                value: &o.value,
+                given: &o.given,
+            },
+        })
         .collect();
-    let params = if files.is_empty() && overrides.is_empty() {
+    if line.params_files().next().is_none() && default.exists() {
+        sources.insert(0, ParameterSource::File(default));
+    }
+    let params = if sources.is_empty() {
         log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
         ParameterFile::default()
     } else {
@@ -66,13 +74,13 @@ fn main() -> ExitCode {
         let naming = &line.naming;
         let full = naming.node_path();
         let names = [full.as_str(), naming.node.as_str(), "/**", "patrol_planner"];
-        match load_parameters_for(&files, &overrides, &names) {
+        match load_parameters_for(&sources, &names) {
             Ok(p) => {
-                for f in &files {
-                    log::info!("parameters from {}", f.display());
-                }
-                for o in &line.overrides {
-                    log::info!("parameter override {}", o.given);
+                for source in &sources {
+                    match source {
+                        ParameterSource::File(f) => log::info!("parameters from {}", f.display()),
+                        ParameterSource::Override { given, .. } => log::info!("parameter {given}"),
+                    }
                 }
                 for w in &p.warnings {
                     log::warn!("{w}");
