@@ -317,7 +317,7 @@ def test_params_files_and_p_rules_apply_with_rclcpps_precedence(tmp_path):
         assert planner.string_value == "astar", "the node's own block over a plain -p, as rclcpp"
         assert safety.double_value == 0.5, "the node's -p over both files' node blocks"
         warned = (ROOT / "target" / log).read_text()
-        assert "`-p planner:=any_angle` is overridden by the node's own block" in warned, warned
+        assert "`-p planner:=any_angle` does nothing" in warned, warned
     finally:
         ros.close()
         stop_binary(proc)

@@ -790,8 +790,13 @@ pub fn load_parameters_for(
     let (mut wildcard, mut own) = (Mapping::new(), Mapping::new());
     let mut wildcard_from = BTreeMap::new();
     let (mut node_name, mut any_block, mut empty) = (None, false, Vec::new());
-    // The top-level key each `-p` set (for an unknown key's error), and the plain ones.
+    // The top-level key each `-p` set (for an unknown key's error), and the plain rules.
     let (mut set_by, mut plain) = (BTreeMap::new(), Vec::new());
+    // The plain name to write a node's rule with (`planner_server`, not `/r1/planner_server`).
+    let plain_node = node_names
+        .first()
+        .and_then(|n| n.rsplit('/').next())
+        .unwrap_or(NODE_NAME);
     let own_names: Vec<String> = node_names
         .iter()
         .filter(|n| **n != WILDCARD)
@@ -830,8 +835,7 @@ pub fn load_parameters_for(
                     Some(n) if own_names.contains(&n) => false,
                     Some(_) => {
                         warnings.push(format!(
-                            "`{given}` is for another node: not applied (this node is {})",
-                            node_names.first().copied().unwrap_or(NODE_NAME)
+                            "`{given}` is for another node: not applied (this node is {plain_node})"
                         ));
                         continue;
                     }
@@ -839,8 +843,7 @@ pub fn load_parameters_for(
                 let top = name.split('.').next().unwrap_or_default().to_owned();
                 if plain_rule {
                     merge_into(&mut wildcard, nested(name, value));
-                    wildcard_from.remove(&top);
-                    plain.push((name, given));
+                    plain.push((name, value, given));
                 } else {
                     merge_into(&mut own, nested(name, value));
                 }
@@ -865,27 +868,28 @@ pub fn load_parameters_for(
     }
     let node_name = node_name.unwrap_or(WILDCARD);
     // With a block of the node's own somewhere, the wildcard's unknown keys from files are
-    // other nodes' (a `-p`'s stay, to be refused below).
+    // other nodes' (a plain `-p`'s stay: this node's, refused below when unknown).
     if node_name != WILDCARD {
         wildcard.retain(|key, _| {
             let k = key.as_str().unwrap_or_default();
             let known = planning_keys.iter().chain(&node_keys).any(|n| n == k)
-                || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k);
-            match (known, wildcard_from.get(k)) {
-                (false, Some(file)) => {
-                    warnings.push(format!(
-                        "{file}: ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)"
-                    ));
-                    false
-                }
-                _ => true,
+                || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k)
+                || set_by.contains_key(k);
+            if !known {
+                let file = wildcard_from.get(k).map_or(label.as_str(), String::as_str);
+                warnings.push(format!(
+                    "{file}: ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)"
+                ));
             }
+            known
         });
     }
-    for (name, given) in plain {
-        if sets(&own, name) {
+    // A plain rule under a value for the node's own name does nothing, as in rclcpp; a mapping
+    // value merges key by key, so only a scalar or a list is said to be overridden.
+    for (name, value, given) in plain {
+        if !value.is_mapping() && sets(&own, name) {
             warnings.push(format!(
-                "`{given}` is overridden by the node's own block, as rclcpp applies a node's block over `/**` values and a -p without a node name: write `-p {node_name}:{name}:=...`"
+                "`{given}` does nothing: a value for the node's own name sets `{name}` (its block in a file, or a `-p {plain_node}:` rule), which rclcpp applies over `/**` values and a -p without a node name; write `-p {plain_node}:{name}:=...`"
             ));
         }
     }
@@ -1036,7 +1040,8 @@ mod tests {
         );
         let late = write_file(
             "multi_late.yaml",
-            "/**:\n  ros__parameters:\n    max_planning_time: 7.0\n    swarm: {iterations: 99}\n",
+            "/**:\n  ros__parameters:\n    max_planning_time: 7.0\n    swarm: {iterations: 99}\n    \
+             late_only_key: 1\n",
         );
         let yaml = |t: &str| serde_yaml::from_str::<Value>(t).unwrap();
         let (v40, v05, off, imga, ga) = (
@@ -1046,11 +1051,14 @@ mod tests {
             yaml("imga"),
             yaml("ga"),
         );
+        let (v3, waypoints) = (yaml("3.0"), yaml("{waypoints: 9}"));
         let sources = [
             ParameterSource::File(&base),
             ParameterSource::File(&dict),
             rule(None, "swarm.population", &v40, "-p swarm.population:=40"),
             rule(None, "use_sim_time", &off, "-p use_sim_time:=false"),
+            rule(None, "max_planning_time", &v3, "-p max_planning_time:=3.0"),
+            rule(None, "swarm", &waypoints, "-p swarm:={waypoints: 9}"),
             ParameterSource::File(&other),
             ParameterSource::File(&late),
             rule(
@@ -1060,10 +1068,10 @@ mod tests {
                 "-p patrol_planner:tolerance:=0.5",
             ),
             rule(
-                Some("/patrol_planner"),
+                Some("patrol_planner"),
                 "planner",
                 &imga,
-                "-p /patrol_planner:planner:=imga",
+                "-p patrol_planner:planner:=imga",
             ),
             rule(
                 Some("planner_server"),
@@ -1094,7 +1102,11 @@ mod tests {
         );
         assert_eq!(
             file.planning.max_planning_time, 7.0,
-            "a /** key the node's blocks leave"
+            "a later /** block over a plain -p"
+        );
+        assert_eq!(
+            swarm.waypoints, 9,
+            "a plain -p's mapping merged under the node's block"
         );
         assert!(
             !file.node.use_sim_time,
@@ -1108,12 +1120,17 @@ mod tests {
                 dict.display()
             ),
             format!("{}: no `<node>: ros__parameters:` block", other.display()),
-            "`-p swarm.population:=40` is overridden by the node's own block".to_owned(),
+            format!("{}: ignored `/**` key `late_only_key`", late.display()),
+            "`-p swarm.population:=40` does nothing".to_owned(),
             "write `-p patrol_planner:swarm.population:=...`".to_owned(),
             "`-p planner_server:planner:=ga` is for another node".to_owned(),
         ] {
             assert!(warned.contains(&expected), "{expected}\nin\n{warned}");
         }
+        assert!(
+            !warned.contains("-p swarm:="),
+            "a mapping merges, not overridden: {warned}"
+        );
         // One file: its map from its own folder, its block as it is.
         let alone =
             load_parameters_for(&[ParameterSource::File(&base)], &[NODE_NAME, WILDCARD]).unwrap();
@@ -1163,6 +1180,24 @@ mod tests {
         assert!(
             invalid.starts_with(&prefix) && invalid.contains("tolerance"),
             "{invalid}"
+        );
+        // A later file's `/**` block with the same unknown key does not make it another node's.
+        let shared = write_file(
+            "multi_shared.yaml",
+            "/**:\n  ros__parameters:\n    planer: x\n",
+        );
+        let typo = yaml("astar");
+        let sources = [
+            ParameterSource::File(&base),
+            rule(None, "planer", &typo, "-p planer:=astar"),
+            ParameterSource::File(&shared),
+        ];
+        let err = load_parameters_for(&sources, &names)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("unknown parameter `planer` set by `-p planer:=astar`"),
+            "{err}"
         );
         let other = write_file(
             "multi_none.yaml",

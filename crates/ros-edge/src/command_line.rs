@@ -21,8 +21,8 @@ use std::path::{Path, PathBuf};
 pub const MAX_NAME_SEGMENTS: usize = 16;
 
 /// One `-p [node:]name:=value`: the value parsed as YAML, as rcl parses it (`true`, `0.5`,
-/// `[1, 2]`, `astar`), the name dotted for a nested key (`swarm.safety_weight`), the node prefix
-/// when one is written (rcl files a rule without one under the wildcard `/**`).
+/// `[1, 2]`, `astar`), the name dotted for a nested key (`swarm.safety_weight`), the node's plain
+/// name when one is written (rcl files a rule without one under the wildcard `/**`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParameterOverride {
     pub node: Option<String>,
@@ -129,8 +129,8 @@ impl CommandLine {
     }
 }
 
-/// `[node:]name:=value` of a `-p` (`flag`): the node a ROS name or the wildcard `/**`, the name
-/// a dotted parameter name, the value YAML.
+/// `[node:]name:=value` of a `-p` (`flag`): the node a plain node name, the name a dotted
+/// parameter name, the value YAML.
 fn parameter_override(flag: &str, rule: &str) -> Result<ParameterOverride, String> {
     let given = format!("{flag} {rule}");
     let (target, text) = rule
@@ -140,13 +140,13 @@ fn parameter_override(flag: &str, rule: &str) -> Result<ParameterOverride, Strin
         Some((node, name)) => (Some(node), name),
         None => (None, target),
     };
+    // rcl takes one name token before the `:` (no namespace, no wildcard) and refuses the rest.
     if let Some(node) = node {
-        let valid = !node.is_empty()
-            && node
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '/' | '*'));
+        let valid = !node.is_empty() && node.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
         if !valid {
-            return Err(format!("{given}: `{node}` is not a node name"));
+            return Err(format!(
+                "{given}: `{node}` is not a node name (rcl takes a plain name before `:`)"
+            ));
         }
     }
     let segments: Vec<&str> = name.split('.').collect();
@@ -237,6 +237,8 @@ mod tests {
             ("--ros-args -p planner", "`[node:]name:=value`"),
             ("--ros-args -p no-de:x:=1", "not a node name"),
             ("--ros-args -p :x:=1", "not a node name"),
+            ("--ros-args -p /ns/node:x:=1", "not a node name"),
+            ("--ros-args -p /**:x:=1", "not a node name"),
             ("--ros-args -p :=astar", "not a parameter name"),
             ("--ros-args -p swarm..x:=1", "not a parameter name"),
             ("--ros-args -p a-b:=1", "not a parameter name"),
