@@ -282,7 +282,11 @@ pub async fn serve_is_path_valid(
         } else {
             None
         };
-        let map = s.current_map_off_thread().await;
+        // A refused path is answered without the map (a burst of them fetches nothing).
+        let map = match refusal {
+            None => s.current_map_off_thread().await,
+            Some(_) => None,
+        };
         let response = match (refusal, map) {
             (Some(why), _) => {
                 warn!("is_path_valid: invalid: {why}");
