@@ -734,10 +734,11 @@ pub fn load_parameter_file_for(
 /// for the wildcard `/**` (a file's `/**` block, or a `-p` without a node prefix, which rcl
 /// files under `/**`) in command-line order, then every value for the node's own name (its block
 /// in a file, a `-p` prefixed with its name) over them, in command-line order. So launch_ros'
-/// `parameters=[nav2_params.yaml, {'use_sim_time': True}]`, two files, gives the second's
-/// use_sim_time; and a plain `-p planner:=astar` is overridden by a file's `patrol_planner:`
-/// block that sets `planner` (warned: write `-p patrol_planner:planner:=astar`, as a C++
-/// node would need too). Sections merge key by key; a dotted name is a nested key.
+/// `parameters=[nav2_params.yaml, {'use_sim_time': True}]`, two files, is read whole (the
+/// dict's `/**` value under the first file's own block, should that set it too); and a plain
+/// `-p planner:=astar` is overridden by a file's `patrol_planner:` block that sets `planner`
+/// (warned: write `-p patrol_planner:planner:=astar`, as a C++ node would need too). Sections
+/// merge key by key; a dotted name is a nested key.
 ///
 /// A file's own block is the first it has among `node_names` (say the fully qualified name,
 /// the plain name, then `patrol_planner`). The merged values are read and validated as one
