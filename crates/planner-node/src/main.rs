@@ -2,9 +2,10 @@
 //! for how to run it beside a ROS 2 stack.
 //!
 //! Usage: `patrol_planner [--params-file FILE] [--ros-args [-r FROM:=TO] [--params-file FILE]
-//! [-p NAME:=VALUE]]`, as `ros2 run` and launch_ros pass them: every parameter file in order, then
-//! every `-p` over them, as rclcpp applies them. Default: `config/planner.yaml` if it exists, else
-//! built-in defaults. Log level from `RUST_LOG` (default info).
+//! [-p [NODE:]NAME:=VALUE]]`, as `ros2 run` and launch_ros pass them: every parameter file and
+//! `-p` with rclcpp's precedence (`/**` values, then the node's own over them; see
+//! `planner_io::parameters::load_parameters_for`). Default: `config/planner.yaml` if it exists,
+//! else built-in defaults. Log level from `RUST_LOG` (default info).
 
 mod action_server;
 mod actions;
