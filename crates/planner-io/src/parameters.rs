@@ -764,9 +764,13 @@ pub fn load_parameters_for(
         .collect();
     let any_override = files.len() < sources.len();
     // What the errors and warnings of the merged values name: the one file, or every source.
-    let label = match (files.as_slice(), any_override) {
-        ([one], false) => one.display().to_string(),
-        _ => {
+    let only_file = match (files.as_slice(), any_override) {
+        ([one], false) => Some(*one),
+        _ => None,
+    };
+    let label = match only_file {
+        Some(one) => one.display().to_string(),
+        None => {
             let mut named: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
             if any_override {
                 named.push("-p".into());
@@ -774,12 +778,12 @@ pub fn load_parameters_for(
             named.join(" + ")
         }
     };
-    let config_err = |message: String| match (files.as_slice(), any_override) {
-        ([one], false) => LoadError::Config {
+    let config_err = |message: String| match only_file {
+        Some(one) => LoadError::Config {
             path: one.to_path_buf(),
             message,
         },
-        _ => LoadError::Parameters {
+        None => LoadError::Parameters {
             sources: label.clone(),
             message,
         },
@@ -790,7 +794,8 @@ pub fn load_parameters_for(
     // rclcpp's two layers, each in command-line order; where each wildcard key came from.
     let (mut wildcard, mut own) = (Mapping::new(), Mapping::new());
     let mut wildcard_from = BTreeMap::new();
-    let (mut node_name, mut any_block, mut empty) = (None, false, Vec::new());
+    // The node's own block's name (the first file's that has one), and the files with no block.
+    let (mut node_name, mut empty) = (None, Vec::new());
     // The top-level key each `-p` set (for an unknown key's error), and the plain rules.
     let (mut set_by, mut plain) = (BTreeMap::new(), Vec::new());
     // The plain name to write a node's rule with (`planner_server`, not `/r1/planner_server`).
@@ -815,12 +820,10 @@ pub fn load_parameters_for(
                         wildcard_from.insert(key.to_owned(), path.display().to_string());
                     }
                     merge_into(&mut wildcard, w);
-                    any_block = true;
                 }
                 if let Some((name, o)) = blocks.own {
                     node_name.get_or_insert(name);
                     merge_into(&mut own, o);
-                    any_block = true;
                 }
             }
             ParameterSource::Override {
@@ -852,7 +855,7 @@ pub fn load_parameters_for(
             }
         }
     }
-    if !files.is_empty() && !any_block {
+    if !files.is_empty() && empty.len() == files.len() {
         return Err(config_err(format!(
             "no `<node>: ros__parameters:` block for any of {}",
             node_names.join(", ")
@@ -1154,16 +1157,18 @@ mod tests {
         let base = write("multi_refused.yaml", "    planner: astar\n");
         let yaml = |t: &str| serde_yaml::from_str::<Value>(t).unwrap();
         let names = [NODE_NAME, WILDCARD];
+        let refusal = |sources: &[ParameterSource]| {
+            load_parameters_for(sources, &names)
+                .unwrap_err()
+                .to_string()
+        };
         let refused = |name: &str, value: &str| {
             let value = yaml(value);
             let given = format!("-p {name}:=...");
-            let sources = [
+            refusal(&[
                 ParameterSource::File(&base),
                 rule(None, name, &value, &given),
-            ];
-            load_parameters_for(&sources, &names)
-                .unwrap_err()
-                .to_string()
+            ])
         };
         let prefix = format!("{} + -p: ", base.display());
         let unknown = refused("planer", "astar");
@@ -1193,9 +1198,7 @@ mod tests {
             rule(None, "planer", &typo, "-p planer:=astar"),
             ParameterSource::File(&shared),
         ];
-        let err = load_parameters_for(&sources, &names)
-            .unwrap_err()
-            .to_string();
+        let err = refusal(&sources);
         assert!(
             err.contains("unknown parameter `planer` set by `-p planer:=astar`"),
             "{err}"
@@ -1205,9 +1208,7 @@ mod tests {
             "controller_server:\n  ros__parameters: {}\n",
         );
         let sources = [ParameterSource::File(&other), ParameterSource::File(&other)];
-        let none = load_parameters_for(&sources, &names)
-            .unwrap_err()
-            .to_string();
+        let none = refusal(&sources);
         assert!(
             none.contains("no `<node>: ros__parameters:` block for any of"),
             "{none}"
