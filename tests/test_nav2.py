@@ -285,7 +285,6 @@ def test_with_use_sim_time_the_node_stamps_with_the_simulations_clock(tmp_path):
         stop_binary(proc)
 
 
-
 def test_params_files_and_p_rules_apply_with_rclcpps_precedence(tmp_path):
     """launch_ros turns `parameters=[nav2_params.yaml, {...}]` into one --params-file each, and
     `ros2 run ... --ros-args -p name:=value` adds rules: the node applies them as rclcpp does

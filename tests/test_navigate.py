@@ -65,6 +65,17 @@ def car_on_the_bundled_map(tmp_path, offset, name):
         yield ros, odom, cmds
 
 
+def run_goal(ros, client, goal, feedback=None, timeout=60):
+    """Sends `goal` on `client`, waits for its acceptance and its result, and returns the
+    result; each feedback is appended to `feedback` when one is given."""
+    sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback is not None and feedback.append(f.feedback))
+    handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the goal")
+    assert handle.accepted
+    result = handle.get_result_async()
+    ros.spin_until(result.done, timeout, "the goal's result")
+    return result.result()
+
+
 def wait_robot_pose_known(ros, timeout=30):
     """Waits until the node plans from the robot's pose. The test's /odom reader can match the
     chassis before the node's does; a goal sent in between is refused with TF_ERROR (202, "no
@@ -76,12 +87,7 @@ def wait_robot_pose_known(ros, timeout=30):
                             "the compute_path_to_pose action")
     deadline = time.time() + timeout
     while True:
-        sent = planner.send_goal_async(ComputePathToPose.Goal(goal=stamped(*NEAR)))
-        handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the pose probe")
-        assert handle.accepted
-        result = handle.get_result_async()
-        ros.spin_until(result.done, 30, "the pose probe's result")
-        r = result.result()
+        r = run_goal(ros, planner, ComputePathToPose.Goal(goal=stamped(*NEAR)), timeout=30)
         if r.status == GoalStatus.STATUS_SUCCEEDED:
             planner.destroy()
             return
@@ -178,13 +184,7 @@ def test_a_route_through_poses_is_planned_as_one_path_and_driven_to_its_end(tmp_
         ros.wait_matched(ros.goal_pub, "/goal_pose")
 
         def send(poses, feedback=None):
-            goal = NavigateThroughPoses.Goal(poses=poses)
-            sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback is not None and feedback.append(f.feedback))
-            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the goal")
-            assert handle.accepted
-            result = handle.get_result_async()
-            ros.spin_until(result.done, 120, "the goal's result")
-            return result.result()
+            return run_goal(ros, client, NavigateThroughPoses.Goal(poses=poses), feedback, timeout=120)
 
         # Out to a via pose 2 m away, then back past the start's side to the goal: the one path
         # goes through the via pose, and the car drives it there and back.
@@ -269,14 +269,6 @@ def test_follow_path_drives_a_given_path_as_controller_server_does(tmp_path):
         ros.wait_action_answers(planner, ComputePathToPose.Goal(goal=stamped(*NEAR, frame="nowhere")),
                                 "the compute_path_to_pose action")
 
-        def run(client, goal, feedback=None, timeout=60):
-            sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback is not None and feedback.append(f.feedback))
-            handle = ros.spin_until(lambda: sent.done() and sent.result(), 30, "acceptance of the goal")
-            assert handle.accepted
-            result = handle.get_result_async()
-            ros.spin_until(result.done, timeout, "the goal's result")
-            return result.result()
-
         def robot():
             p = odom[-1].pose.pose.position
             return p.x, p.y
@@ -285,7 +277,7 @@ def test_follow_path_drives_a_given_path_as_controller_server_does(tmp_path):
             return Path(header=stamped(0.0, 0.0, frame=frame).header,
                         poses=[stamped(x, y, yaw, frame=frame) for x, y, yaw in points])
 
-        planned = run(planner, ComputePathToPose.Goal(goal=stamped(*NEAR)))
+        planned = run_goal(ros, planner, ComputePathToPose.Goal(goal=stamped(*NEAR)))
         assert planned.status == GoalStatus.STATUS_SUCCEEDED, planned.result.error_msg
         path = planned.result.path
         assert len(path.poses) > 10
@@ -301,14 +293,14 @@ def test_follow_path_drives_a_given_path_as_controller_server_does(tmp_path):
                 q for q in path.poses if math.hypot(q.pose.position.x - x0, q.pose.position.y - y0) > 1.5])), 103, "from the robot"),
         ]
         for goal, code, words in refusals:
-            r = run(follow, goal, timeout=10)
+            r = run_goal(ros, follow, goal, timeout=10)
             assert r.status == GoalStatus.STATUS_ABORTED and r.result.error_code == code, (code, r.status, r.result)
             assert words in r.result.error_msg, r.result.error_msg
         assert math.hypot(robot()[0] - x0, robot()[1] - y0) < 0.02, "a refused path moved the car"
 
         # The planner's path, driven to its end: controller_server's feedback counts it down.
         feedback = []
-        r = run(follow, FollowPath.Goal(path=path), feedback)
+        r = run_goal(ros, follow, FollowPath.Goal(path=path), feedback)
         assert r.status == GoalStatus.STATUS_SUCCEEDED and r.result.error_code == 0, r.result
         ros.spin_for(0.5)
         assert math.hypot(robot()[0] - NEAR[0], robot()[1] - NEAR[1]) <= 0.15, robot()
@@ -317,7 +309,7 @@ def test_follow_path_drives_a_given_path_as_controller_server_does(tmp_path):
         assert max(f.speed for f in feedback) > 0.2
         # A sparse path made by hand (its two ends 1.5 m apart): densified and driven along.
         x1, y1 = robot()
-        r = run(follow, FollowPath.Goal(path=path_of([(x1, y1, 0.0), (3.5, 0.6, 0.0)])))
+        r = run_goal(ros, follow, FollowPath.Goal(path=path_of([(x1, y1, 0.0), (3.5, 0.6, 0.0)])))
         assert r.status == GoalStatus.STATUS_SUCCEEDED, r.result
         ros.spin_for(0.5)
         assert math.hypot(robot()[0] - 3.5, robot()[1] - 0.6) <= 0.15, robot()
