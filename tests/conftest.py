@@ -43,29 +43,41 @@ def _domains_in_use():
     return used
 
 
+# The domains handed out in this process, so that two offsets never share one.
+_handed_out = set()
+
+
 @functools.lru_cache(maxsize=None)
 def domain_id(offset=0):
-    """One domain per test run (0..232 are valid; stay clear of 0, the default); a test module
-    that starts binaries of its own uses `offset` to keep them apart from the `ros` fixture's node.
-    TEST_DOMAIN_BASE and TEST_DOMAIN_SPAN (default 100 and 100: domains 100-199) give a pytest
-    run that goes beside another one a range of its own (scripts/test-all runs test_patrol.py
-    on 200-229); pytest-xdist's workers share the range out (two: 100-149 and 150-199). A
-    domain another process on this machine already uses (a soak, a second test
-    run) is skipped; the answer is kept for the run, so a module asking again gets the same."""
-    base = int(os.environ.get("TEST_DOMAIN_BASE", "100"))
-    span = int(os.environ.get("TEST_DOMAIN_SPAN", "100"))
+    """One domain per test run; a test module that starts binaries of its own uses `offset` to
+    keep them apart from the `ros` fixture's node, and no two offsets get the same domain.
+
+    Only domains 1-101: a domain's DDS ports are 7400 + 250 x domain and up, and from domain 102
+    they fall inside Linux's ephemeral port range (32768-60999), where any process's outgoing
+    socket can take a participant's port (the ROS 2 documentation's "Domain ID" concept page
+    says so; 0 is everyone's default). TEST_DOMAIN_BASE and TEST_DOMAIN_SPAN (default 1 and 90:
+    domains 1-90) give a pytest run that goes beside another one a range of its own
+    (scripts/test-all runs test_patrol.py on 91-101); pytest-xdist's workers share the range out
+    (two: 1-45 and 46-90). A domain another process on this machine already uses (a soak, a
+    second test run) is skipped; the answer is kept for the run, so a module asking again gets
+    the same."""
+    base = int(os.environ.get("TEST_DOMAIN_BASE", "1"))
+    span = int(os.environ.get("TEST_DOMAIN_SPAN", "90"))
     # pytest-xdist's workers (gw0, gw1, ...) split the range, each its own part of it.
     worker = os.environ.get("PYTEST_XDIST_WORKER", "")
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if worker.startswith("gw") and workers > 1:
         span //= workers
         base += int(worker[2:]) * span
-    used = _domains_in_use()
-    for k in range(span):
-        d = base + (os.getpid() + offset + k) % span
-        if d not in used:
-            return d
-    return base + (os.getpid() + offset) % span
+    used = _domains_in_use() | _handed_out
+    candidates = [base + (os.getpid() + offset + k) % span for k in range(span)]
+    domain = next((d for d in candidates if d not in used), None)
+    if domain is None:
+        domain = next((d for d in candidates if d not in _handed_out), None)
+    if domain is None:
+        raise RuntimeError(f"every domain of {base}-{base + span - 1} is taken by this test run")
+    _handed_out.add(domain)
+    return domain
 
 
 class Ros:

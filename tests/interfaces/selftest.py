@@ -1,6 +1,6 @@
 """Self-test of the nav2_msgs interfaces that tests/build_interfaces.sh builds into the venv.
 
-Runs, on a private ROS_DOMAIN_ID (201 unless --domain or NAV2_MSGS_SELFTEST_DOMAIN says
+Runs, on a private ROS_DOMAIN_ID (101 unless --domain or NAV2_MSGS_SELFTEST_DOMAIN says
 otherwise), in two processes (--one-process: in one), rclpy action servers and clients for
 nav2_msgs/action/ComputePathToPose, ComputePathThroughPoses and FollowWaypoints and a service
 server and client for nav2_msgs/srv/IsPathValid, called the way Nav2's own clients call them
@@ -352,7 +352,7 @@ def layout():
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--domain", type=int, default=int(os.environ.get("NAV2_MSGS_SELFTEST_DOMAIN", "201")))
+    parser.add_argument("--domain", type=int, default=int(os.environ.get("NAV2_MSGS_SELFTEST_DOMAIN", "101")))
     parser.add_argument("--layout", action="store_true", help="also print type names, hashes and wire layouts")
     parser.add_argument("--one-process", action="store_true",
                         help="servers and clients in this process (default: the servers run in a child process)")
