@@ -232,20 +232,22 @@ def start_node(domain, params_file, log_name, ros_args=()):
     return start_binary(BINARY, domain, params_file, log_name, "patrol_planner=info,warn", ros_args)
 
 
-def start_bridge(domain, params_file, log_name, rust_log="chassis_bridge=info,warn"):
-    """The real chassis_bridge on `domain`, its output in target/`log_name`."""
-    return start_binary(BRIDGE, domain, params_file, log_name, rust_log)
+def start_bridge(domain, params_file, log_name, rust_log="chassis_bridge=info,warn", ros_args=()):
+    """The real chassis_bridge on `domain`, its output in target/`log_name`; `ros_args` as
+    `start_binary` takes them."""
+    return start_binary(BRIDGE, domain, params_file, log_name, rust_log, ros_args)
 
 
 @contextlib.contextmanager
-def driving_rig(offset, node_params, bridge_params, name):
+def driving_rig(offset, node_params, bridge_params, name, bridge_args=()):
     """The real node and chassis_bridge (the simulated car) on a domain of their own (`offset`,
-    as `domain_id` takes it), their output in target/patrol_planner_`name`_test.log and
-    target/chassis_bridge_`name`_test.log, and a client beside them; all stopped afterwards."""
+    as `domain_id` takes it; the bridge's `bridge_args` after `--ros-args`), their output in
+    target/patrol_planner_`name`_test.log and target/chassis_bridge_`name`_test.log, and a
+    client beside them; all stopped afterwards."""
     domain = domain_id(offset)
     node = start_node(domain, node_params, f"patrol_planner_{name}_test.log")
     try:
-        bridge = start_bridge(domain, bridge_params, f"chassis_bridge_{name}_test.log")
+        bridge = start_bridge(domain, bridge_params, f"chassis_bridge_{name}_test.log", ros_args=bridge_args)
     except BaseException:
         stop_binary(node)
         raise

@@ -21,9 +21,14 @@ def stamped_rig(tmp_path_factory):
         f"patrol_planner:\n  ros__parameters:\n    map_yaml: {ROOT / 'config' / 'maps' / 'datacenter_100.yaml'}\n"
         "    planner: astar\n    enable_stamped_cmd_vel: true\n    robot_base_frame: base_footprint\n"
     )
-    bridge_params = folder / "chassis.yaml"
-    bridge_params.write_text("chassis_bridge:\n  ros__parameters:\n    enable_stamped_cmd_vel: true\n")
-    with driving_rig(75, node_params, bridge_params, "stamped") as ros:
+    # The bridge as a launch starts it: the bundled file, a dict's file of `/**` values
+    # (`parameters=[chassis.yaml, {'use_sim_time': False}]`) and a rule for its own name; only
+    # that rule (applied over the file's `enable_stamped_cmd_vel: false`) lets it take
+    # TwistStamped, so the car moves only when the bridge applies every source.
+    launch_dict = folder / "launch_dict.yaml"
+    launch_dict.write_text("/**:\n  ros__parameters:\n    use_sim_time: false\n")
+    bridge_args = ("--params-file", str(launch_dict), "-p", "chassis_bridge:enable_stamped_cmd_vel:=true")
+    with driving_rig(75, node_params, ROOT / "config" / "chassis.yaml", "stamped", bridge_args) as ros:
         yield ros
 
 
@@ -84,3 +89,9 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
         stamps.append(stamp)
         assert abs(c.twist.linear.x) <= 0.6 + 1e-9 and abs(c.twist.angular.z) <= 0.4 + 1e-9
     assert all(b > a for a, b in zip(stamps, stamps[1:])), "stamps that do not increase"
+
+
+def test_the_bridge_read_every_source_and_named_what_it_passed_over(stamped_rig):
+    log = (ROOT / "target" / "chassis_bridge_stamped_test.log").read_text()
+    assert "parameter -p chassis_bridge:enable_stamped_cmd_vel:=true" in log, log[-2000:]
+    assert "launch_dict.yaml: ignored `/**` key `use_sim_time`" in log, log[-2000:]

@@ -12,9 +12,14 @@
 //! `/odom` pauses meanwhile (so the planner's follower stops on stale odometry) and the bridge
 //! keeps serving.
 //!
-//! Usage: `chassis_bridge [--params-file FILE]` (default `config/chassis.yaml` if present). The
-//! file's `chassis_bridge: ros__parameters:` block is read strictly: an unknown key, at the top
-//! or in a section, is an error naming it and the file.
+//! Usage: `chassis_bridge [--params-file FILE] [--ros-args [-r __node:=NAME] [--params-file FILE]
+//! [-p [NODE:]NAME:=VALUE] ...]` (default `config/chassis.yaml` if present and no file is given).
+//! Every file and `-p` applies, as rclcpp applies them (ros-parameters: `/**` values, then the
+//! node's own over them): launch_ros' `parameters=[chassis.yaml, {...}]` is read whole. The
+//! node's block (`chassis_bridge: ros__parameters:`, or its remapped name's) is read strictly: an
+//! unknown key, at the top or in a section, is an error naming it and the sources; a `/**`
+//! block's keys the bridge does not have are other nodes' (`use_sim_time`), passed over with a
+//! warning.
 
 use anyhow::{anyhow, bail, Result};
 use chassis::kinematics::DiffDrive;
@@ -35,12 +40,13 @@ use ros2_client::{
     qos::{Durability, History},
     MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
 };
-use serde::Deserialize;
+use ros_edge::command_line::{CommandLine, ParameterSource};
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 enum Backend {
     Sim,
@@ -49,7 +55,7 @@ enum Backend {
 
 /// The `chassis_bridge: ros__parameters:` block. Unknown keys are refused here and in every
 /// section (limits, drive, serial, serial.encoders), so a typo is an error, not a default.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 struct Params {
     backend: Backend,
@@ -88,19 +94,39 @@ impl Default for Params {
 }
 
 fn load() -> Result<Params> {
-    let line = ros_edge::command_line::CommandLine::from_env("chassis_bridge")
-        .map_err(|e| anyhow!("command line: {e}"))?;
-    for unread in line.unread_by_a_one_file_reader() {
-        log::warn!("command line: {unread}");
+    let line = CommandLine::from_env("chassis_bridge").map_err(|e| anyhow!("command line: {e}"))?;
+    let (params, warnings) = parameters(&line, Path::new("config/chassis.yaml"))?;
+    for warning in warnings {
+        warn!("{warning}");
     }
-    let default = Path::new("config/chassis.yaml");
-    let params: Params = match line.params_files().next() {
-        Some(path) => ros_edge::parameters::read(path, "chassis_bridge")?,
-        None if default.exists() => ros_edge::parameters::read(default, "chassis_bridge")?,
-        None => Params::default(),
-    };
     check(&params)?;
     Ok(params)
+}
+
+/// The parameters `line` gives (`default` first when it names no file and exists), with what
+/// was read past.
+fn parameters(line: &CommandLine, default: &Path) -> Result<(Params, Vec<String>)> {
+    let mut sources = line.parameters.clone();
+    if line.params_files().next().is_none() && default.exists() {
+        sources.insert(0, ParameterSource::File(default.to_owned()));
+    }
+    for source in &sources {
+        match source {
+            ParameterSource::File(f) => info!("parameters from {}", f.display()),
+            ParameterSource::Override(rule) => info!("parameter {}", rule.given),
+        }
+    }
+    // The node's fully qualified name, its plain name, and rclcpp's wildcard.
+    let full = line.naming.node_path();
+    // The node's fully qualified name, its plain name, rclcpp's wildcard, and the bundled
+    // file's block under a remapped name.
+    let names = [
+        full.as_str(),
+        line.naming.node.as_str(),
+        ros_parameters::WILDCARD,
+        "chassis_bridge",
+    ];
+    Ok(ros_parameters::read(&sources, &names)?)
 }
 
 /// The longest `cmd_timeout` and `feedback_timeout` (s): the car stops when commands (or the
@@ -503,34 +529,83 @@ mod tests {
     use super::*;
     use std::path::{Path, PathBuf};
 
-    #[test]
-    fn the_bundled_config_is_the_built_in_default() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/chassis.yaml");
-        let p: Params = ros_edge::parameters::read(&path, "chassis_bridge").unwrap();
-        assert_eq!(p, Params::default());
+    fn bundled() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/chassis.yaml")
     }
 
-    /// Limits past the car's rated ones, and a watchdog that would let the car drive on for
-    /// minutes after the commands stop, are refused; the defaults pass.
+    /// The parameters of a command line (`args` split at spaces), with the bundled file as the
+    /// default.
+    fn parameters_of(args: &str) -> Result<(Params, Vec<String>)> {
+        let line =
+            CommandLine::from_args(args.split_whitespace().map(String::from), "chassis_bridge")
+                .map_err(anyhow::Error::msg)?;
+        parameters(&line, &bundled())
+    }
+
     #[test]
-    fn limits_past_the_rated_ones_and_long_timeouts_are_refused() {
-        assert!(check(&Params::default()).is_ok());
-        let fast = Params {
-            limits: TwistLimits {
-                max_linear: 5.0,
-                ..TwistLimits::RATED
-            },
-            ..Params::default()
-        };
-        assert!(check(&fast).unwrap_err().to_string().contains("rated"));
-        for cmd_timeout in [1e300, 2.5, 0.0, f64::NAN] {
-            let slow = Params {
-                cmd_timeout,
-                ..Params::default()
-            };
-            let err = check(&slow).unwrap_err().to_string();
-            assert!(err.contains("cmd_timeout"), "{cmd_timeout}: {err}");
-        }
+    fn the_bundled_config_is_the_built_in_default() {
+        let (p, warnings) = parameters_of("").unwrap();
+        assert_eq!(p, Params::default());
+        assert!(warnings.is_empty(), "{warnings:?}");
+    }
+
+    /// As a launch starts the bridge: the bundled file, a dict's file of `/**` values and `-p`
+    /// rules, each applied with rclcpp's precedence (the node's own values over `/**` ones);
+    /// under a remapped name, that name's rules. Before, only the first file was read.
+    #[test]
+    fn every_file_and_rule_applies_as_rclcpp_applies_them() {
+        let dict: PathBuf =
+            std::env::temp_dir().join(format!("chassis-bridge-dict-{}.yaml", std::process::id()));
+        std::fs::write(
+            &dict,
+            "/**:\n  ros__parameters:\n    use_sim_time: true\n    rate_hz: 99.0\n    limits: {max_angular: 0.3}\n",
+        )
+        .unwrap();
+        let args = format!(
+            "--params-file {} --ros-args --params-file {} -p chassis_bridge:cmd_timeout:=0.25 \
+             -p publish_tf:=false -p other:backend:=serial",
+            bundled().display(),
+            dict.display()
+        );
+        let result = parameters_of(&args);
+        let _ = std::fs::remove_file(&dict);
+        let (p, warnings) = result.unwrap();
+        assert_eq!(p.cmd_timeout, 0.25, "the node's own rule");
+        assert_eq!(
+            p.rate_hz, 50.0,
+            "the bundled block's over the later `/**` file's"
+        );
+        assert_eq!(
+            p.limits.max_angular, 0.4,
+            "the block's limits over the `/**` section's"
+        );
+        assert!(p.publish_tf, "a plain rule under the block's value");
+        assert_eq!(p.backend, Backend::Sim, "another node's rule");
+        let said = warnings.join("\n");
+        assert!(said.contains("ignored `/**` key `use_sim_time`"), "{said}");
+        assert!(
+            said.contains("`-p publish_tf:=false` does nothing"),
+            "{said}"
+        );
+        assert!(
+            said.contains("`-p other:backend:=serial` is for another node"),
+            "{said}"
+        );
+        // Remapped: the bundled `chassis_bridge:` block still read, the new name's rules apply.
+        let (p, _) = parameters_of(
+            "--ros-args -r __node:=base -p base:rate_hz:=20.0 -p chassis_bridge_x:rate_hz:=1.0",
+        )
+        .unwrap();
+        assert_eq!((p.rate_hz, p.cmd_timeout), (20.0, 0.5));
+        // An unknown key from a rule is refused naming the rule.
+        let e = parameters_of("--ros-args -p limits.max_linar:=0.3")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("unknown field `max_linar`")
+                && e.contains("set by `-p limits.max_linar:=0.3`"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -542,7 +617,7 @@ mod tests {
             "chassis_bridge:\n  ros__parameters:\n    backnd: serial\n",
         )
         .unwrap();
-        let result = ros_edge::parameters::read::<Params>(&path, "chassis_bridge");
+        let result = parameters_of(&format!("--params-file {}", path.display()));
         let _ = std::fs::remove_file(&path);
         let message = result.unwrap_err().to_string();
         assert!(

@@ -39,6 +39,29 @@ pub enum LoadError {
     Parameters { sources: String, message: String },
 }
 
+/// A parameter file's error as the loaders give it: a file at fault names the file (`Io`,
+/// `Config`); values merged from several sources name them all (`Parameters`).
+impl From<ros_parameters::ParameterError> for LoadError {
+    fn from(e: ros_parameters::ParameterError) -> Self {
+        use ros_parameters::ParameterError as P;
+        match e {
+            P::Io { path, error } => LoadError::Io {
+                path,
+                reason: error,
+            },
+            P::File { path, message }
+            | P::Values {
+                only_file: Some(path),
+                message,
+                ..
+            } => LoadError::Config { path, message },
+            P::Values {
+                sources, message, ..
+            } => LoadError::Parameters { sources, message },
+        }
+    }
+}
+
 /// The largest file read (bytes): a map of the cell cap (100 M cells) as a 16-bit PGM is 200 MB.
 /// Anything larger, or anything that is not a regular file (`/dev/zero`, a FIFO), is refused
 /// before it is read, so no file can exhaust memory.
@@ -103,38 +126,6 @@ pub fn load_scenario_file(path: &Path) -> Result<(ScenarioFile, PathBuf), LoadEr
     let file = ScenarioFile::parse(&read(path)?).map_err(map_err(path))?;
     let map_path = path.parent().unwrap_or(Path::new(".")).join(&file.map);
     Ok((file, map_path))
-}
-
-/// A ROS 2 parameter file (Nav2's layout) as a YAML document, read once for every block looked
-/// up in it ([`ros_parameters`]): through [`read`], and refused before parsing when nested too
-/// deep.
-pub fn load_ros_parameter_file(path: &Path) -> Result<serde_yaml::Value, LoadError> {
-    let text = read(path)?;
-    let config_err = |message: String| LoadError::Config {
-        path: path.to_owned(),
-        message,
-    };
-    input_guard::yaml::check(&text).map_err(config_err)?;
-    serde_yaml::from_slice(&text).map_err(|e| config_err(e.to_string()))
-}
-
-/// The `ros__parameters` block of `node_name` in a parameter file's document, if it has one. A
-/// fully qualified name (`/robot1/planner_server`) is found as one key or nested by namespace
-/// (`robot1: planner_server:`, as Nav2's launch writes a namespaced file); a node in the root
-/// namespace is found by its plain name, which callers try next.
-pub fn ros_parameters<'a>(
-    doc: &'a serde_yaml::Value,
-    node_name: &str,
-) -> Option<&'a serde_yaml::Value> {
-    let segments: Vec<&str> = node_name.split('/').filter(|s| !s.is_empty()).collect();
-    let nested = || {
-        (node_name.starts_with('/') && segments.len() > 1)
-            .then(|| segments.iter().try_fold(doc, |v, segment| v.get(segment)))
-            .flatten()
-    };
-    doc.get(node_name)
-        .or_else(nested)
-        .and_then(|n| n.get("ros__parameters"))
 }
 
 /// The planning part of a parameter file, validated: the `patrol_planner` block's planning keys.

@@ -10,6 +10,8 @@ use chassis::limits::TwistLimits;
 use chassis::progress::ProgressParams;
 use planner_core::config::PlannerConfig;
 use planner_core::PlannerName;
+use ros_parameters::{field_names as keys, Layers, WILDCARD};
+pub use ros_parameters::{ParameterOverride, ParameterSource};
 use serde::{Deserialize, Serialize};
 use serde_yaml::{Mapping, Value};
 use std::collections::BTreeMap;
@@ -568,23 +570,6 @@ fn adopt_plugin_keys(id: &str, block: &Value, planning: &mut Mapping, warnings: 
     }
 }
 
-/// rclcpp's wildcard node name: its block applies to every node.
-const WILDCARD: &str = "/**";
-
-/// `over`'s keys into `base`, a mapping under a key merged key by key (a wildcard's
-/// `swarm: {population: 30}` under the node's `swarm: {patience: 5}` keeps both), anything else
-/// replaced.
-fn merge_into(base: &mut Mapping, over: Mapping) {
-    for (key, value) in over {
-        match (base.get_mut(&key), value) {
-            (Some(Value::Mapping(b)), Value::Mapping(o)) => merge_into(b, o),
-            (_, value) => {
-                base.insert(key, value);
-            }
-        }
-    }
-}
-
 /// A YAML value as one line of a message (`astar`, `0.5`, `[GridBased, Smooth]`).
 fn yaml_text(value: &Value) -> String {
     serde_yaml::to_string(value)
@@ -593,102 +578,14 @@ fn yaml_text(value: &Value) -> String {
         .to_owned()
 }
 
-/// One file's blocks for the node (see [`load_parameters_for`]): rclcpp's wildcard `/**` (when
-/// `node_names` has it) and the first of the node's own names it has, each with a relative
-/// `map_yaml` joined to the file's folder. The file is read and parsed once for every name.
-fn file_blocks<'n>(path: &Path, node_names: &[&'n str]) -> Result<FileBlocks<'n>, LoadError> {
-    let config_err = |message: String| LoadError::Config {
-        path: path.to_owned(),
-        message,
-    };
-    let doc = crate::load_ros_parameter_file(path)?;
-    let block_of = |name: &str| {
-        let mut block = match crate::ros_parameters(&doc, name) {
-            None => return Ok(None),
-            Some(Value::Mapping(m)) => m.clone(),
-            Some(Value::Null) => Mapping::new(),
-            Some(other) => {
-                return Err(config_err(format!(
-                    "`{name}: ros__parameters:` is not a mapping but {other:?}"
-                )))
-            }
-        };
-        if let Some(Value::String(map)) = block.get("map_yaml") {
-            if !map.is_empty() && Path::new(map).is_relative() {
-                let resolved = path.parent().unwrap_or(Path::new(".")).join(map);
-                let resolved = Value::from(resolved.to_string_lossy().into_owned());
-                block.insert(Value::from("map_yaml"), resolved);
-            }
+/// A relative `map_yaml` in a file's block, taken from that file's folder.
+fn resolve_map_yaml(file: &Path, block: &mut Mapping) {
+    if let Some(Value::String(map)) = block.get("map_yaml") {
+        if !map.is_empty() && Path::new(map).is_relative() {
+            let resolved = file.parent().unwrap_or(Path::new(".")).join(map);
+            let resolved = Value::from(resolved.to_string_lossy().into_owned());
+            block.insert(Value::from("map_yaml"), resolved);
         }
-        Ok(Some(block))
-    };
-    let wildcard = match node_names.contains(&WILDCARD) {
-        true => block_of(WILDCARD)?,
-        false => None,
-    };
-    let mut own = None;
-    for name in node_names.iter().filter(|n| **n != WILDCARD) {
-        if let Some(block) = block_of(name)? {
-            own = Some((*name, block));
-            break;
-        }
-    }
-    Ok(FileBlocks { wildcard, own })
-}
-
-/// What [`file_blocks`] finds in one file.
-struct FileBlocks<'n> {
-    wildcard: Option<Mapping>,
-    own: Option<(&'n str, Mapping)>,
-}
-
-/// One source of a node's parameters, as its command line gives them, in order.
-#[derive(Clone, Copy, Debug)]
-pub enum ParameterSource<'a> {
-    /// A `--params-file`.
-    File(&'a Path),
-    /// A `-p [node:]name:=value`: the node prefix if one was written, the dotted name, the
-    /// value, and the rule as written (for messages).
-    Override {
-        node: Option<&'a str>,
-        name: &'a str,
-        value: &'a Value,
-        given: &'a str,
-    },
-}
-
-/// `value` under the dotted `name` (`swarm.safety_weight`) as a mapping to merge.
-fn nested(name: &str, value: &Value) -> Mapping {
-    let mut nested = value.clone();
-    for segment in name.rsplit('.') {
-        let mut m = Mapping::new();
-        m.insert(Value::from(segment), nested);
-        nested = Value::Mapping(m);
-    }
-    match nested {
-        Value::Mapping(m) => m,
-        _ => Mapping::new(),
-    }
-}
-
-/// Whether `mapping` sets the dotted `name`.
-fn sets(mapping: &Mapping, name: &str) -> bool {
-    let mut segments = name.split('.');
-    let Some(first) = segments.next() else {
-        return false;
-    };
-    let mut at = mapping.get(first);
-    for segment in segments {
-        at = at.and_then(|v| v.get(segment));
-    }
-    at.is_some()
-}
-
-/// A ROS name as rclcpp keys a node's parameters: fully qualified (`/planner_server`).
-fn qualified(name: &str) -> String {
-    match name.starts_with('/') {
-        true => name.to_owned(),
-        false => format!("/{name}"),
     }
 }
 
@@ -700,17 +597,6 @@ pub struct ParameterFile {
     /// What was read past (Nav2's keys for its C++ plugins and its costmap), one line each, for
     /// the reader to log.
     pub warnings: Vec<String>,
-}
-
-/// The top-level keys a default value serialises to: a struct's field names.
-fn keys<T: Serialize>(value: &T) -> Vec<String> {
-    match serde_yaml::to_value(value) {
-        Ok(Value::Mapping(m)) => m
-            .keys()
-            .filter_map(|k| k.as_str().map(String::from))
-            .collect(),
-        _ => Vec::new(),
-    }
 }
 
 /// Reads and validates the `patrol_planner` block of a parameter file (keyed `patrol_planner`,
@@ -726,7 +612,7 @@ pub fn load_parameter_file_for(
     path: &Path,
     node_names: &[&str],
 ) -> Result<ParameterFile, LoadError> {
-    load_parameters_for(&[ParameterSource::File(path)], node_names)
+    load_parameters_for(&[ParameterSource::File(path.to_owned())], node_names)
 }
 
 /// A node's parameters from every `--params-file` and `-p [node:]name:=value` of its command
@@ -750,155 +636,26 @@ pub fn load_parameter_file_for(
 /// folder of the file that names it (launch_ros writes a dict's file in the temporary folder:
 /// give a launch's map_yaml as an absolute path). With several files, one without a block for
 /// the node is passed over with a warning; with one, or when no file has a block, it is an
-/// error. An error of the merged values names every source, a warning its own.
+/// error. An error of the merged values names every source, a warning its own. The layering is
+/// ros-parameters' [`Layers`], which chassis_bridge reads its parameters with too; what is the
+/// planner's own here is which keys it knows and Nav2's plugin blocks.
 pub fn load_parameters_for(
-    sources: &[ParameterSource<'_>],
+    sources: &[ParameterSource],
     node_names: &[&str],
 ) -> Result<ParameterFile, LoadError> {
-    let files: Vec<&Path> = sources
-        .iter()
-        .filter_map(|s| match s {
-            ParameterSource::File(path) => Some(*path),
-            ParameterSource::Override { .. } => None,
-        })
-        .collect();
-    let any_override = files.len() < sources.len();
-    // What the errors and warnings of the merged values name: the one file, or every source.
-    let only_file = match (files.as_slice(), any_override) {
-        ([one], false) => Some(*one),
-        _ => None,
-    };
-    let label = match only_file {
-        Some(one) => one.display().to_string(),
-        None => {
-            let mut named: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
-            if any_override {
-                named.push("-p".into());
-            }
-            named.join(" + ")
-        }
-    };
-    let config_err = |message: String| match only_file {
-        Some(one) => LoadError::Config {
-            path: one.to_path_buf(),
-            message,
-        },
-        None => LoadError::Parameters {
-            sources: label.clone(),
-            message,
-        },
-    };
+    let mut layers = Layers::gather(sources, node_names, resolve_map_yaml)?;
     let planning_keys = keys(&PlannerConfig::default());
     let node_keys = keys(&NodeParams::default());
-    let mut warnings = Vec::new();
-    // rclcpp's two layers, each in command-line order; where each wildcard key came from.
-    let (mut wildcard, mut own) = (Mapping::new(), Mapping::new());
-    let mut wildcard_from = BTreeMap::new();
-    // The node's own block's name (the first file's that has one), and the files with no block.
-    let (mut node_name, mut empty) = (None, Vec::new());
-    // The top-level key each `-p` set (for an unknown key's error), and the plain rules.
-    let (mut set_by, mut plain) = (BTreeMap::new(), Vec::new());
-    // The plain name to write a node's rule with (`planner_server`, not `/r1/planner_server`).
-    let plain_node = node_names
-        .first()
-        .and_then(|n| n.rsplit('/').next())
-        .unwrap_or(NODE_NAME);
-    let own_names: Vec<String> = node_names
-        .iter()
-        .filter(|n| **n != WILDCARD)
-        .map(|n| qualified(n))
-        .collect();
-    for source in sources {
-        match *source {
-            ParameterSource::File(path) => {
-                let blocks = file_blocks(path, node_names)?;
-                if blocks.wildcard.is_none() && blocks.own.is_none() {
-                    empty.push(path);
-                }
-                if let Some(w) = blocks.wildcard {
-                    for key in w.keys().filter_map(Value::as_str) {
-                        wildcard_from.insert(key.to_owned(), path.display().to_string());
-                    }
-                    merge_into(&mut wildcard, w);
-                }
-                if let Some((name, o)) = blocks.own {
-                    node_name.get_or_insert(name);
-                    merge_into(&mut own, o);
-                }
-            }
-            ParameterSource::Override {
-                node,
-                name,
-                value,
-                given,
-            } => {
-                // rcl files a rule without a node name under `/**`.
-                let plain_rule = match node.map(qualified) {
-                    None => true,
-                    Some(n) if n == WILDCARD => true,
-                    Some(n) if own_names.contains(&n) => false,
-                    Some(_) => {
-                        warnings.push(format!(
-                            "`{given}` is for another node: not applied (this node is {plain_node})"
-                        ));
-                        continue;
-                    }
-                };
-                let top = name.split('.').next().unwrap_or_default().to_owned();
-                if plain_rule {
-                    merge_into(&mut wildcard, nested(name, value));
-                    plain.push((name, value, given));
-                } else {
-                    merge_into(&mut own, nested(name, value));
-                }
-                set_by.insert(top, given.to_owned());
-            }
-        }
-    }
-    if !files.is_empty() && empty.len() == files.len() {
-        return Err(config_err(format!(
-            "no `<node>: ros__parameters:` block for any of {}",
-            node_names.join(", ")
-        )));
-    }
-    if files.len() > 1 {
-        for path in empty {
-            warnings.push(format!(
-                "{}: no `<node>: ros__parameters:` block for any of {}: nothing read from it",
-                path.display(),
-                node_names.join(", ")
-            ));
-        }
-    }
-    let node_name = node_name.unwrap_or(WILDCARD);
     // With a block of the node's own somewhere, the wildcard's unknown keys from files are
-    // other nodes' (a plain `-p`'s stay: this node's, refused below when unknown).
-    if node_name != WILDCARD {
-        wildcard.retain(|key, _| {
-            let k = key.as_str().unwrap_or_default();
-            let known = planning_keys.iter().chain(&node_keys).any(|n| n == k)
-                || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k)
-                || set_by.contains_key(k);
-            if !known {
-                let file = wildcard_from.get(k).map_or(label.as_str(), String::as_str);
-                warnings.push(format!(
-                    "{file}: ignored `{WILDCARD}` key `{k}`: not a parameter of this node (rclcpp nodes ignore the wildcard's undeclared parameters)"
-                ));
-            }
-            known
-        });
-    }
-    // A plain rule under a value for the node's own name does nothing, as in rclcpp; a mapping
-    // value merges key by key, so only a scalar or a list is said to be overridden.
-    for (name, value, given) in plain {
-        if !value.is_mapping() && sets(&own, name) {
-            warnings.push(format!(
-                "`{given}` does nothing: a value for the node's own name sets `{name}` (its block in a file, or a `-p {plain_node}:` rule), which rclcpp applies over `/**` values and a -p without a node name; write `-p {plain_node}:{name}:=...`"
-            ));
-        }
-    }
-    let mut block = wildcard;
-    merge_into(&mut block, own);
+    // other nodes' (a `-p`'s stay: this node's, refused below when unknown).
+    layers.drop_other_nodes_wildcard_keys(|k| {
+        planning_keys.iter().chain(&node_keys).any(|n| n == k)
+            || NAV2_KEYS_IGNORED.iter().any(|(n, _)| *n == k)
+    });
+    let block = layers.merge();
+    let mut warnings = std::mem::take(&mut layers.warnings);
+    let node_name = layers.own_block.as_deref().unwrap_or(WILDCARD);
+    let config_err = |message: String| LoadError::from(layers.error(message));
     let block_warnings_from = warnings.len();
     // Nav2's plugin ids, whose blocks are keys of their own names.
     let plugin_ids: Vec<String> = match block.get("planner_plugins") {
@@ -932,7 +689,7 @@ pub fn load_parameters_for(
         } else {
             let mut valid = planning_keys.clone();
             valid.extend(node_keys.iter().cloned());
-            let place = match set_by.get(name) {
+            let place = match layers.set_by(name) {
                 Some(given) => format!("set by `{given}`"),
                 None => format!("in `{node_name}: ros__parameters:`"),
             };
@@ -976,6 +733,7 @@ pub fn load_parameters_for(
     node.plugin_planners = plugin_planners;
     node.validate().map_err(config_err)?;
     // The merged block's warnings name its sources; each file's own already name the file.
+    let label = layers.label();
     for w in &mut warnings[block_warnings_from..] {
         *w = format!("{label}: {w}");
     }
@@ -1001,18 +759,13 @@ mod tests {
     }
 
     /// A `-p` rule as the command line gives it.
-    fn rule<'a>(
-        node: Option<&'a str>,
-        name: &'a str,
-        value: &'a Value,
-        given: &'a str,
-    ) -> ParameterSource<'a> {
-        ParameterSource::Override {
-            node,
-            name,
-            value,
-            given,
-        }
+    fn rule(node: Option<&str>, name: &str, value: &Value, given: &str) -> ParameterSource {
+        ParameterSource::Override(ParameterOverride {
+            node: node.map(String::from),
+            name: name.to_owned(),
+            value: value.clone(),
+            given: given.to_owned(),
+        })
     }
 
     /// rclcpp's precedence over files and `-p` rules: `/**` values (a file's wildcard block, a
@@ -1057,14 +810,14 @@ mod tests {
         );
         let (v3, waypoints) = (yaml("3.0"), yaml("{waypoints: 9}"));
         let sources = [
-            ParameterSource::File(&base),
-            ParameterSource::File(&dict),
+            ParameterSource::File(base.clone()),
+            ParameterSource::File(dict.clone()),
             rule(None, "swarm.population", &v40, "-p swarm.population:=40"),
             rule(None, "use_sim_time", &off, "-p use_sim_time:=false"),
             rule(None, "max_planning_time", &v3, "-p max_planning_time:=3.0"),
             rule(None, "swarm", &waypoints, "-p swarm:={waypoints: 9}"),
-            ParameterSource::File(&other),
-            ParameterSource::File(&late),
+            ParameterSource::File(other.clone()),
+            ParameterSource::File(late.clone()),
             rule(
                 Some("patrol_planner"),
                 "tolerance",
@@ -1136,8 +889,11 @@ mod tests {
             "a mapping merges, not overridden: {warned}"
         );
         // One file: its map from its own folder, its block as it is.
-        let alone =
-            load_parameters_for(&[ParameterSource::File(&base)], &[NODE_NAME, WILDCARD]).unwrap();
+        let alone = load_parameters_for(
+            &[ParameterSource::File(base.clone())],
+            &[NODE_NAME, WILDCARD],
+        )
+        .unwrap();
         assert_eq!(
             alone.node.map_yaml,
             base.parent().unwrap().join("maps/a.yaml").to_string_lossy()
@@ -1166,7 +922,7 @@ mod tests {
             let value = yaml(value);
             let given = format!("-p {name}:=...");
             refusal(&[
-                ParameterSource::File(&base),
+                ParameterSource::File(base.clone()),
                 rule(None, name, &value, &given),
             ])
         };
@@ -1194,9 +950,9 @@ mod tests {
         );
         let typo = yaml("astar");
         let sources = [
-            ParameterSource::File(&base),
+            ParameterSource::File(base.clone()),
             rule(None, "planer", &typo, "-p planer:=astar"),
-            ParameterSource::File(&shared),
+            ParameterSource::File(shared.clone()),
         ];
         let err = refusal(&sources);
         assert!(
@@ -1207,7 +963,10 @@ mod tests {
             "multi_none.yaml",
             "controller_server:\n  ros__parameters: {}\n",
         );
-        let sources = [ParameterSource::File(&other), ParameterSource::File(&other)];
+        let sources = [
+            ParameterSource::File(other.clone()),
+            ParameterSource::File(other.clone()),
+        ];
         let none = refusal(&sources);
         assert!(
             none.contains("no `<node>: ros__parameters:` block for any of"),

@@ -32,7 +32,6 @@ mod result;
 mod state;
 
 use planner_io::parameters::{load_parameters_for, ParameterFile, ParameterSource};
-use ros_edge::command_line::ParameterSource as CommandSource;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -50,21 +49,9 @@ fn main() -> ExitCode {
     // Every --params-file and -p in order (config/planner.yaml first when no file is given and
     // it exists), applied with rclcpp's precedence (planner_io::parameters::load_parameters_for).
     let default = Path::new("config/planner.yaml");
-    let mut sources: Vec<ParameterSource> = line
-        .parameters
-        .iter()
-        .map(|p| match p {
-            CommandSource::File(f) => ParameterSource::File(f),
-            CommandSource::Override(o) => ParameterSource::Override {
-                node: o.node.as_deref(),
-                name: &o.name,
-                value: &o.value,
-                given: &o.given,
-            },
-        })
-        .collect();
+    let mut sources = line.parameters.clone();
     if line.params_files().next().is_none() && default.exists() {
-        sources.insert(0, ParameterSource::File(default));
+        sources.insert(0, ParameterSource::File(default.to_owned()));
     }
     let params = if sources.is_empty() {
         log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
@@ -80,7 +67,7 @@ fn main() -> ExitCode {
                 for source in &sources {
                     match source {
                         ParameterSource::File(f) => log::info!("parameters from {}", f.display()),
-                        ParameterSource::Override { given, .. } => log::info!("parameter {given}"),
+                        ParameterSource::Override(rule) => log::info!("parameter {}", rule.given),
                     }
                 }
                 for w in &p.warnings {

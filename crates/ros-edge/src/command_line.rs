@@ -9,35 +9,13 @@
 //! as `{'use_sim_time': True}` becomes a file of its own), so a node that read only the first
 //! would lose the launch's settings without a word. Every file and every `-p [node:]name:=value`
 //! is kept in command-line order, for the reader to apply with rclcpp's precedence
-//! (`planner_io::parameters::load_parameters_for`). `--params-file` is also taken before
+//! (`ros_parameters::Layers`). `--params-file` is also taken before
 //! `--ros-args` (`patrol_planner --params-file FILE`, this project's own short form); `-r` and
 //! `-p` only after it, up to a `--`, as rcl takes them.
 
 use crate::naming::Naming;
+pub use ros_parameters::{ParameterOverride, ParameterSource, MAX_NAME_SEGMENTS};
 use std::path::{Path, PathBuf};
-
-/// The most segments a dotted parameter name may have (`swarm.safety_weight` has two): the
-/// name becomes nested mappings, and a name of thousands would nest as deep.
-pub const MAX_NAME_SEGMENTS: usize = 16;
-
-/// One `-p [node:]name:=value`: the value parsed as YAML, as rcl parses it (`true`, `0.5`,
-/// `[1, 2]`, `astar`), the name dotted for a nested key (`swarm.safety_weight`), the node's plain
-/// name when one is written (rcl files a rule without one under the wildcard `/**`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ParameterOverride {
-    pub node: Option<String>,
-    pub name: String,
-    pub value: serde_yaml::Value,
-    /// As written, for messages: `-p swarm.safety_weight:=0.5`.
-    pub given: String,
-}
-
-/// A parameter file or a `-p`, in command-line order.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParameterSource {
-    File(PathBuf),
-    Override(ParameterOverride),
-}
 
 /// What a binary takes from its command line.
 #[derive(Clone, Debug, PartialEq)]
@@ -86,7 +64,7 @@ impl CommandLine {
                 }
                 "-p" | "--param" if in_ros_args => {
                     let rule = operand()?;
-                    let rule = parameter_override(&arg, &rule)?;
+                    let rule = ParameterOverride::parse(&arg, &rule)?;
                     line.parameters.push(ParameterSource::Override(rule));
                 }
                 _ => {}
@@ -102,78 +80,6 @@ impl CommandLine {
             ParameterSource::Override(_) => None,
         })
     }
-
-    /// For a binary that reads only the first parameter file and no `-p`: what it reads past,
-    /// one warning each, so that a user who gave them learns that they did nothing.
-    pub fn unread_by_a_one_file_reader(&self) -> Vec<String> {
-        let mut files = 0;
-        let mut unread = Vec::new();
-        for p in &self.parameters {
-            match p {
-                ParameterSource::File(f) => {
-                    files += 1;
-                    if files > 1 {
-                        unread.push(format!(
-                            "--params-file {}: only the first --params-file is read; put its keys in that one",
-                            f.display()
-                        ));
-                    }
-                }
-                ParameterSource::Override(o) => unread.push(format!(
-                    "{}: parameters are read from the --params-file only; set it there",
-                    o.given
-                )),
-            }
-        }
-        unread
-    }
-}
-
-/// `[node:]name:=value` of a `-p` (`flag`): the node a plain node name, the name a dotted
-/// parameter name, the value YAML.
-fn parameter_override(flag: &str, rule: &str) -> Result<ParameterOverride, String> {
-    let given = format!("{flag} {rule}");
-    let (target, text) = rule
-        .split_once(":=")
-        .ok_or_else(|| format!("{given}: a parameter rule is `[node:]name:=value`"))?;
-    let (node, name) = match target.split_once(':') {
-        Some((node, name)) => (Some(node), name),
-        None => (None, target),
-    };
-    // rcl takes one name token before the `:` (no namespace, no wildcard) and refuses the rest.
-    if let Some(node) = node {
-        let valid = !node.is_empty() && node.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-        if !valid {
-            return Err(format!(
-                "{given}: `{node}` is not a node name (rcl takes a plain name before `:`)"
-            ));
-        }
-    }
-    let segments: Vec<&str> = name.split('.').collect();
-    let valid_name = segments
-        .iter()
-        .all(|s| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'));
-    if !valid_name {
-        return Err(format!("{given}: `{name}` is not a parameter name"));
-    }
-    if segments.len() > MAX_NAME_SEGMENTS {
-        return Err(format!(
-            "{given}: a parameter name of more than {MAX_NAME_SEGMENTS} dotted parts"
-        ));
-    }
-    // The value's text is the user's: the nesting check keeps `[[[[...` from the parser.
-    input_guard::yaml::check(text.as_bytes()).map_err(|e| format!("{given}: {e}"))?;
-    let value: serde_yaml::Value =
-        serde_yaml::from_str(text).map_err(|e| format!("{given}: the value is not YAML: {e}"))?;
-    if value.is_null() {
-        return Err(format!("{given}: no value after `:=`"));
-    }
-    Ok(ParameterOverride {
-        node: node.map(String::from),
-        name: name.to_owned(),
-        value,
-        given,
-    })
 }
 
 #[cfg(test)]
@@ -261,20 +167,5 @@ mod tests {
         assert!(line(&long).unwrap_err().contains("dotted parts"));
         let deep = format!("--ros-args -p x:={}", "[".repeat(10_000));
         assert!(line(&deep).unwrap_err().contains("-p x:="));
-    }
-
-    /// A one-file reader (the chassis bridge) names what it reads past.
-    #[test]
-    fn a_one_file_reader_names_what_it_reads_past() {
-        let l =
-            line("--params-file a.yaml --ros-args -p planner:=astar --params-file b.yaml").unwrap();
-        let unread = l.unread_by_a_one_file_reader();
-        assert_eq!(unread.len(), 2, "{unread:?}");
-        assert!(unread[0].starts_with("-p planner:=astar"), "{unread:?}");
-        assert!(unread[1].starts_with("--params-file b.yaml"), "{unread:?}");
-        assert!(line("--params-file a.yaml")
-            .unwrap()
-            .unread_by_a_one_file_reader()
-            .is_empty());
     }
 }
