@@ -6,7 +6,9 @@
 //! (chassis.rs): `sim`, the simulated car, or `serial`, a motor controller on a serial line
 //! (serial.rs). Either way the odometry comes back on `/odom` (nav_msgs/Odometry, odom ->
 //! base_link) and, with `publish_tf`, as the odom -> base_link transform on `/tf`, as
-//! diff_drive_controller publishes it.
+//! diff_drive_controller publishes it. Those are the names in the root namespace: the node's
+//! name, namespace and topics take `-r` rules as patrol_planner's do (`-r __ns:=/robot1` puts
+//! every topic but `/tf` under `/robot1`).
 //!
 //! A serial controller that cannot be opened, goes away or stops reporting is logged and retried;
 //! `/odom` pauses meanwhile (so the planner's follower stops on stale odometry) and the bridge
@@ -38,9 +40,10 @@ use patrol_msgs::std_msgs::{Float64MultiArray, Header, MultiArrayDimension, Mult
 use patrol_msgs::tf2_msgs::TFMessage;
 use ros2_client::{
     qos::{Durability, History},
-    MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
+    MessageTypeName, NodeName, NodeOptions, QosProfile, Subscription,
 };
 use ros_edge::command_line::{CommandLine, ParameterSource};
+use ros_edge::naming::Naming;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -93,15 +96,27 @@ impl Default for Params {
     }
 }
 
-fn load() -> Result<Params> {
+/// The parameters and the names the command line gives.
+fn load() -> Result<(Params, Naming)> {
     let line = CommandLine::from_env("chassis_bridge").map_err(|e| anyhow!("command line: {e}"))?;
     let (params, warnings) = parameters(&line, Path::new("config/chassis.yaml"))?;
     for warning in warnings {
         warn!("{warning}");
     }
     check(&params)?;
-    Ok(params)
+    Ok((params, line.naming))
 }
+
+/// The bridge's topics as written, resolved through the command line's names as the node's are
+/// (ros_edge::naming): relative ones inside the namespace, so that `-r __ns:=/robot1` gives
+/// `/robot1/cmd_vel` and each robot of a fleet has its own; `/tf` absolute, as tf2 has it
+/// (remap `/tf:=tf` for a namespaced tree). The planner forwards its limits on its private
+/// `~/twist_limits`: `patrol_planner/twist_limits` here (remap it when the planner is renamed).
+const CMD_VEL: &str = "cmd_vel";
+const TWIST_LIMITS: &str = "patrol_planner/twist_limits";
+const WHEEL_CMD: &str = "wheel_cmd";
+const ODOM: &str = "odom";
+const TF: &str = "/tf";
 
 /// The parameters `line` gives (`default` first when it names no file and exists), with what
 /// was read past.
@@ -164,7 +179,7 @@ fn check(params: &Params) -> Result<()> {
 
 fn main() -> std::process::ExitCode {
     ros_edge::logging::init(&["chassis_bridge"]);
-    let result = load().and_then(|p| ros_edge::run_ros(run(p)));
+    let result = load().and_then(|(p, naming)| ros_edge::run_ros(run(p, naming)));
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -260,11 +275,11 @@ impl Link {
     }
 }
 
-async fn run(p: Params) -> Result<()> {
+async fn run(p: Params, naming: Naming) -> Result<()> {
     let mut signals = ros_edge::ShutdownSignals::new()?;
     let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(
-        NodeName::new("/", "chassis_bridge")?,
+        NodeName::new(&naming.namespace, &naming.node)?,
         NodeOptions::new().enable_rosout(true),
     )?;
     let spinner = tokio::spawn(node.spinner()?.spin());
@@ -285,7 +300,7 @@ async fn run(p: Params) -> Result<()> {
         ("Twist", false)
     };
     let cmd_topic = node.create_topic(
-        &Name::new("/", "cmd_vel")?,
+        &naming.name(CMD_VEL)?,
         MessageTypeName::new("geometry_msgs", cmd_type),
         &volatile,
     )?;
@@ -298,20 +313,20 @@ async fn run(p: Params) -> Result<()> {
         tasks.spawn(keep_latest(sub, latest.clone(), |t| t));
     }
     let lim_topic = node.create_topic(
-        &Name::new("/patrol_planner", "twist_limits")?,
+        &naming.name(TWIST_LIMITS)?,
         MessageTypeName::new("geometry_msgs", "Twist"),
         &latched,
     )?;
     let lim_sub = node.create_subscription::<Twist>(&lim_topic, Some(latched))?;
     let wheel_topic = node.create_topic(
-        &Name::new("/", "wheel_cmd")?,
+        &naming.name(WHEEL_CMD)?,
         MessageTypeName::new("std_msgs", "Float64MultiArray"),
         &volatile,
     )?;
     let wheel_pub =
         node.create_publisher::<Float64MultiArray>(&wheel_topic, Some(volatile.clone()))?;
     let odom_topic = node.create_topic(
-        &Name::new("/", "odom")?,
+        &naming.name(ODOM)?,
         MessageTypeName::new("nav_msgs", "Odometry"),
         &volatile,
     )?;
@@ -320,7 +335,7 @@ async fn run(p: Params) -> Result<()> {
     let tf_qos = ros_edge::reliable(100, Durability::Volatile);
     let tf_pub = if p.publish_tf {
         let topic = node.create_topic(
-            &Name::new("/", "tf")?,
+            &naming.name(TF)?,
             MessageTypeName::new("tf2_msgs", "TFMessage"),
             &tf_qos,
         )?;
@@ -364,13 +379,15 @@ async fn run(p: Params) -> Result<()> {
     let mut sent = Twist2::STOP;
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(dt));
     info!(
-        "chassis_bridge ({}) on ROS_DOMAIN_ID {domain}: {} Hz, timeout {} s, /cmd_vel as {}",
+        "{} ({}) on ROS_DOMAIN_ID {domain}: {} Hz, timeout {} s, {} as {}",
+        naming.node_path(),
         match p.backend {
             Backend::Sim => "sim".to_string(),
             Backend::Serial => format!("serial {}", p.serial.device),
         },
         p.rate_hz,
         p.cmd_timeout,
+        naming.resolve(CMD_VEL),
         if p.enable_stamped_cmd_vel {
             "TwistStamped"
         } else {
@@ -528,6 +545,38 @@ fn tf_msg(odom: &Odometry) -> TFMessage {
 mod tests {
     use super::*;
     use std::path::{Path, PathBuf};
+
+    /// Without rules, the names one robot has always had; under `-r __ns:=/robot1` every topic
+    /// but /tf is that robot's own, and a remap renames the planner's limits topic.
+    #[test]
+    fn topics_follow_the_command_lines_names() {
+        let resolve = |args: &str| {
+            let line =
+                CommandLine::from_args(args.split_whitespace().map(String::from), "chassis_bridge")
+                    .unwrap();
+            [CMD_VEL, TWIST_LIMITS, WHEEL_CMD, ODOM, TF].map(|t| line.naming.resolve(t))
+        };
+        assert_eq!(
+            resolve(""),
+            [
+                "/cmd_vel",
+                "/patrol_planner/twist_limits",
+                "/wheel_cmd",
+                "/odom",
+                "/tf"
+            ]
+        );
+        assert_eq!(
+            resolve("--ros-args -r __ns:=/robot1 -r patrol_planner/twist_limits:=planner_server/twist_limits"),
+            [
+                "/robot1/cmd_vel",
+                "/robot1/planner_server/twist_limits",
+                "/robot1/wheel_cmd",
+                "/robot1/odom",
+                "/tf"
+            ]
+        );
+    }
 
     fn bundled() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/chassis.yaml")
