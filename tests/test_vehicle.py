@@ -13,7 +13,10 @@ from geometry_msgs.msg import Twist, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import Float64MultiArray
 
-from conftest import ROOT, domain_id, stamped, start_bridge, stop_binary
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import GetParameters, SetParameters
+
+from conftest import ROOT, call_service, domain_id, stamped, start_bridge, stop_binary
 
 R, B = 0.08, 0.40  # config/chassis.yaml's wheel radius and separation
 GOAL = (8.1, 6.9)
@@ -135,3 +138,23 @@ def test_the_car_drives_to_the_goal_within_limits_and_stops_when_commands_stop(r
     cut = time.time()
     stopped_at = ros.spin_until(lambda: next((time.time() for w in wheels[-3:] if w.data[0] == 0.0 and w.data[1] == 0.0), None), 3, "the wheels to stop")
     assert stopped_at - cut <= 0.5 + 0.25, f"wheels stopped {stopped_at - cut:.2f} s after the last command"
+
+
+def test_the_bridges_parameters_are_read_only_ros_parameters(ros, bridge):
+    """`ros2 param get` shows what the bridge runs with (config/chassis.yaml's values, by their
+    dotted names and ROS types); `ros2 param set` of one is refused with the way to change it."""
+    values = call_service(
+        ros, GetParameters, "/chassis_bridge/get_parameters",
+        GetParameters.Request(names=["limits.max_linear", "backend", "initial_pose", "serial.baud"]),
+    ).values
+    assert [v.type for v in values] == [
+        ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_STRING,
+        ParameterType.PARAMETER_DOUBLE_ARRAY, ParameterType.PARAMETER_INTEGER,
+    ], values
+    assert values[0].double_value == 0.6 and values[1].string_value == "sim", values
+    assert list(values[2].double_array_value) == [0.1, 0.1, 0.0] and values[3].integer_value == 115200, values
+    faster = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=2.0)
+    request = SetParameters.Request(parameters=[Parameter(name="limits.max_linear", value=faster)])
+    result = call_service(ros, SetParameters, "/chassis_bridge/set_parameters", request).results[0]
+    assert not result.successful and "read at start only" in result.reason, result
+

@@ -278,10 +278,26 @@ impl Link {
 async fn run(p: Params, naming: Naming) -> Result<()> {
     let mut signals = ros_edge::ShutdownSignals::new()?;
     let (context, domain) = ros_edge::context()?;
-    let mut node = context.new_node(
-        NodeName::new(&naming.namespace, &naming.node)?,
-        NodeOptions::new().enable_rosout(true),
-    )?;
+    // Every parameter as ROS parameters, read-only: `ros2 param get` and `ros2 param dump`
+    // show what the bridge runs with; a `ros2 param set` to another value is refused with the
+    // way to change it (the limits and the watchdog are checked at start, not while the car
+    // drives). The value it holds is accepted, as declaring it passes through here too.
+    let values = ros_edge::parameter_values::flatten(&p);
+    let held = values.clone();
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .parameter_validator(Box::new(move |name, value| {
+            match held.iter().find(|(n, _)| n == name) {
+                Some((_, v)) if v != value => Err(format!(
+                    "`{name}` is read at start only: set it in the parameter file or with -p and restart the bridge"
+                )),
+                _ => Ok(()),
+            }
+        }));
+    for (name, value) in values {
+        options = options.declare_parameter(&name, value);
+    }
+    let mut node = context.new_node(NodeName::new(&naming.namespace, &naming.node)?, options)?;
     let spinner = tokio::spawn(node.spinner()?.spin());
     ros_edge::logging::forward_to_rosout(node.logging_handle());
     // Every task holding a DDS reader or writer, so that shutdown can end them before the

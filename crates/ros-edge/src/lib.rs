@@ -2,13 +2,14 @@
 //! once: a DDS context on the user's `ROS_DOMAIN_ID`, the command line (`command_line`: names,
 //! parameter files, `-p` overrides), header stamps from the system clock (or `/clock`, with
 //! `use_sim_time`), SIGINT and SIGTERM, the reliable QoS profile set explicitly on every topic
-//! (ros2-client's defaults differ from rclpy's), logging to the terminal and `/rosout`, and serving
-//! a ROS 2 service (`service`). The parameters the command line names are read by the
+//! (ros2-client's defaults differ from rclpy's), logging to the terminal and `/rosout`, serving
+//! a ROS 2 service (`service`), and a parameter struct as ROS parameters (`parameter_values`). The parameters the command line names are read by the
 //! ros-parameters crate.
 
 pub mod command_line;
 pub mod logging;
 pub mod naming;
+pub mod parameter_values;
 pub mod service;
 
 use anyhow::{Context as _, Result};
