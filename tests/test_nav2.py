@@ -293,7 +293,8 @@ def test_params_files_and_p_rules_apply_with_rclcpps_precedence(tmp_path):
     Asked through the node's parameter services, as `ros2 param get` asks; the -p that its own
     block overrides is named in a warning, as a user would otherwise not learn why it did
     nothing."""
-    from rcl_interfaces.srv import GetParameters
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters, SetParameters
 
     from conftest import ROOT, call_service
 
@@ -317,6 +318,17 @@ def test_params_files_and_p_rules_apply_with_rclcpps_precedence(tmp_path):
         assert safety.double_value == 0.5, "the node's -p over both files' node blocks"
         warned = (ROOT / "target" / log).read_text()
         assert "`-p planner:=any_angle` does nothing" in warned, warned
+        # What is read at start only is there too (`ros2 param dump` shows the whole), and a
+        # set of it to another value is refused, saying why.
+        iterations, plugins = call_service(
+            ros, GetParameters, "/patrol_planner/get_parameters",
+            GetParameters.Request(names=["swarm.iterations", "planner_plugins"])).values
+        assert iterations.type == ParameterType.PARAMETER_INTEGER and iterations.integer_value == 1000000
+        assert list(plugins.string_array_value) == ["GridBased", "Smooth"], plugins
+        fewer = ParameterValue(type=ParameterType.PARAMETER_INTEGER, integer_value=10)
+        refused = call_service(ros, SetParameters, "/patrol_planner/set_parameters", SetParameters.Request(
+            parameters=[Parameter(name="swarm.iterations", value=fewer)])).results[0]
+        assert not refused.successful and "read at start only" in refused.reason, refused
     finally:
         ros.close()
         stop_binary(proc)

@@ -37,7 +37,7 @@ use crate::inputs;
 use crate::lifecycle_services;
 use crate::map_server;
 use crate::outputs::{CmdVel, Outputs};
-use crate::params::{unused_on_costmap, validate_parameter, with_setting, SETTINGS};
+use crate::params::{is_live, unused_on_costmap, validate_parameter, with_setting, SETTINGS};
 use crate::planning;
 use crate::state::{GoalSlot, Shared};
 use anyhow::Result;
@@ -72,6 +72,7 @@ use ros2_client::{
     ServiceMapping,
 };
 use ros_edge::naming::Naming;
+use ros_edge::parameter_values::flatten;
 use ros_edge::service::ServiceServer;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -270,6 +271,17 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         node: params,
         ..
     } = file;
+    // Every other value the node runs with, read-only, so that `ros2 param get` and `ros2 param
+    // dump` show what the parameter files and -p rules came to (they are read at start: a set
+    // to another value is refused, saying so).
+    let read_only: Vec<(String, ParameterValue)> = flatten(&params)
+        .into_iter()
+        .chain(flatten(&planning))
+        // use_sim_time is ros2-client's own parameter (it switches ros2-client's clock; the node
+        // stamps with ros_edge's): left as it was.
+        .filter(|(name, _)| !is_live(name) && name != "use_sim_time")
+        .collect();
+    let held = read_only.clone();
     let shared = Arc::new(Shared::new(params.clone(), planning));
     let live = shared.live.read().expect("lock").clone();
     let on_set = shared.clone();
@@ -284,6 +296,14 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         )
         .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
         .parameter_validator(Box::new(move |name, value| {
+            if let Some((_, v)) = held.iter().find(|(n, _)| n == name) {
+                return match v == value {
+                    true => Ok(()),
+                    false => Err(format!(
+                        "`{name}` is read at start only: set it in the parameter file or with -p and restart the node"
+                    )),
+                };
+            }
             validate_parameter(name, value)?;
             let number = match value {
                 ParameterValue::Double(v) => *v,
@@ -297,6 +317,10 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             unused_on_costmap(name, number, &live.config, &on_check.params.costmap_topic)
         }))
         .parameter_set_action(Box::new(move |name, value| {
+            if !is_live(name) {
+                // A read-only value, declared (the validator let through only the value held).
+                return Ok(());
+            }
             let mut l = on_set
                 .live
                 .write()
@@ -319,6 +343,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         }));
     for w in SETTINGS {
         options = options.declare_parameter(w.name, ParameterValue::Double((w.get)(&live.config)));
+    }
+    for (name, value) in read_only {
+        options = options.declare_parameter(&name, value);
     }
     let (context, domain) = ros_edge::context()?;
     let mut node = context.new_node(NodeName::new(&naming.namespace, &naming.node)?, options)?;

@@ -167,6 +167,13 @@ fn is_setting(name: &str) -> bool {
     SETTINGS.iter().any(|w| w.name == name)
 }
 
+/// Whether `ros2 param set` may change `name` while the node runs: `planner`,
+/// `max_planning_time`, `tolerance` and the [`SETTINGS`]. The node's other parameters are
+/// declared read-only (node.rs).
+pub fn is_live(name: &str) -> bool {
+    matches!(name, "planner" | "max_planning_time" | "tolerance") || is_setting(name)
+}
+
 /// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
 pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), String> {
     match (name, value) {
@@ -209,6 +216,29 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The names ros2 param set may change are the three top-level ones and the settings; the
+    /// rest of the parameter file, declared read-only, is not.
+    #[test]
+    fn live_names_are_the_settable_ones() {
+        for live in [
+            "planner",
+            "max_planning_time",
+            "tolerance",
+            "swarm.safety_weight",
+        ] {
+            assert!(is_live(live), "{live}");
+        }
+        for fixed in [
+            "swarm.iterations",
+            "planner_plugins",
+            "map_yaml",
+            "use_sim_time",
+            "swarm",
+        ] {
+            assert!(!is_live(fixed), "{fixed}");
+        }
+    }
 
     #[test]
     fn every_setting_reads_and_writes_its_own_field_and_is_range_checked() {
