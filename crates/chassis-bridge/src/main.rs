@@ -44,6 +44,7 @@ use ros2_client::{
 };
 use ros_edge::command_line::{CommandLine, ParameterSource};
 use ros_edge::naming::Naming;
+use ros_edge::parameter_values::{flatten, read_only_answer};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -131,7 +132,6 @@ fn parameters(line: &CommandLine, default: &Path) -> Result<(Params, Vec<String>
             ParameterSource::Override(rule) => info!("parameter {}", rule.given),
         }
     }
-    // The node's fully qualified name, its plain name, and rclcpp's wildcard.
     let full = line.naming.node_path();
     // The node's fully qualified name, its plain name, rclcpp's wildcard, and the bundled
     // file's block under a remapped name.
@@ -282,17 +282,12 @@ async fn run(p: Params, naming: Naming) -> Result<()> {
     // show what the bridge runs with; a `ros2 param set` to another value is refused with the
     // way to change it (the limits and the watchdog are checked at start, not while the car
     // drives). The value it holds is accepted, as declaring it passes through here too.
-    let values = ros_edge::parameter_values::flatten(&p);
+    let values = flatten(&p);
     let held = values.clone();
     let mut options = NodeOptions::new()
         .enable_rosout(true)
         .parameter_validator(Box::new(move |name, value| {
-            match held.iter().find(|(n, _)| n == name) {
-                Some((_, v)) if v != value => Err(format!(
-                    "`{name}` is read at start only: set it in the parameter file or with -p and restart the bridge"
-                )),
-                _ => Ok(()),
-            }
+            read_only_answer(&held, name, value, "the bridge").unwrap_or(Ok(()))
         }));
     for (name, value) in values {
         options = options.declare_parameter(&name, value);

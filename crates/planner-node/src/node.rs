@@ -72,7 +72,7 @@ use ros2_client::{
     ServiceMapping,
 };
 use ros_edge::naming::Naming;
-use ros_edge::parameter_values::flatten;
+use ros_edge::parameter_values::{flatten, read_only_answer};
 use ros_edge::service::ServiceServer;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -296,13 +296,8 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         )
         .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
         .parameter_validator(Box::new(move |name, value| {
-            if let Some((_, v)) = held.iter().find(|(n, _)| n == name) {
-                return match v == value {
-                    true => Ok(()),
-                    false => Err(format!(
-                        "`{name}` is read at start only: set it in the parameter file or with -p and restart the node"
-                    )),
-                };
+            if let Some(answer) = read_only_answer(&held, name, value, "the node") {
+                return answer;
             }
             validate_parameter(name, value)?;
             let number = match value {

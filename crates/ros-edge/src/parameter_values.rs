@@ -39,6 +39,38 @@ fn walk(prefix: &str, value: &Value, out: &mut Vec<(String, ParameterValue)>) {
     }
 }
 
+/// The validator's answer for a parameter declared read-only from `held` (what [`flatten`]
+/// gave): `None` when `name` is not one of them; else the value held is accepted (declaring it
+/// passes the validator too, and setting it again changes nothing) and any other refused,
+/// saying how to change it (`who` restarts: "the node"). NaN is its own value here, so that a
+/// NaN held can be declared.
+pub fn read_only_answer(
+    held: &[(String, ParameterValue)],
+    name: &str,
+    value: &ParameterValue,
+    who: &str,
+) -> Option<Result<(), String>> {
+    let (_, v) = held.iter().find(|(n, _)| n == name)?;
+    Some(match same(v, value) {
+        true => Ok(()),
+        false => Err(format!(
+            "`{name}` is read at start only: set it in the parameter file or with -p and restart {who}"
+        )),
+    })
+}
+
+/// Equal values, a NaN equal to a NaN.
+fn same(a: &ParameterValue, b: &ParameterValue) -> bool {
+    let eq = |x: &f64, y: &f64| x == y || (x.is_nan() && y.is_nan());
+    match (a, b) {
+        (ParameterValue::Double(x), ParameterValue::Double(y)) => eq(x, y),
+        (ParameterValue::DoubleArray(xs), ParameterValue::DoubleArray(ys)) => {
+            xs.len() == ys.len() && xs.iter().zip(ys).all(|(x, y)| eq(x, y))
+        }
+        _ => a == b,
+    }
+}
+
 /// A YAML scalar or list as the ROS parameter value it is, if it is one. A list of whole and
 /// fractional numbers (`initial_pose: [0.1, 0.1, 0]`) is a list of doubles.
 fn parameter_value(value: &Value) -> Option<ParameterValue> {
@@ -129,5 +161,33 @@ mod tests {
             expect.into_iter().map(|(n, v)| (n.to_owned(), v)).collect();
         // The null and the mixed list are no ROS parameters: left out.
         assert_eq!(got, expect);
+    }
+
+    /// The value held passes (a NaN too: declaring it must), another is refused naming the
+    /// parameter; a name not held is not this check's.
+    #[test]
+    fn a_read_only_value_takes_only_itself() {
+        let held = vec![
+            ("a".to_owned(), ParameterValue::Double(f64::NAN)),
+            (
+                "b".to_owned(),
+                ParameterValue::DoubleArray(vec![1.0, f64::NAN]),
+            ),
+            ("c".to_owned(), ParameterValue::String("sim".into())),
+        ];
+        let answer = |name: &str, v: ParameterValue| read_only_answer(&held, name, &v, "it");
+        assert_eq!(answer("a", ParameterValue::Double(f64::NAN)), Some(Ok(())));
+        let b = ParameterValue::DoubleArray(vec![1.0, f64::NAN]);
+        assert_eq!(answer("b", b), Some(Ok(())));
+        assert_eq!(
+            answer("c", ParameterValue::String("sim".into())),
+            Some(Ok(()))
+        );
+        let refused = answer("c", ParameterValue::String("serial".into()))
+            .unwrap()
+            .unwrap_err();
+        assert!(refused.contains("`c` is read at start only") && refused.ends_with("restart it"));
+        assert!(answer("a", ParameterValue::Double(1.0)).unwrap().is_err());
+        assert_eq!(answer("d", ParameterValue::Double(1.0)), None);
     }
 }
