@@ -589,6 +589,14 @@ mod tests {
         );
     }
 
+    /// A parameter file of `text` in the temporary folder (the caller removes it).
+    fn temp_file(name: &str, text: &str) -> PathBuf {
+        let path =
+            std::env::temp_dir().join(format!("chassis-bridge-{name}-{}.yaml", std::process::id()));
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
     fn bundled() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/chassis.yaml")
     }
@@ -614,13 +622,10 @@ mod tests {
     /// under a remapped name, that name's rules. Before, only the first file was read.
     #[test]
     fn every_file_and_rule_applies_as_rclcpp_applies_them() {
-        let dict: PathBuf =
-            std::env::temp_dir().join(format!("chassis-bridge-dict-{}.yaml", std::process::id()));
-        std::fs::write(
-            &dict,
+        let dict = temp_file(
+            "dict",
             "/**:\n  ros__parameters:\n    use_sim_time: true\n    rate_hz: 99.0\n    limits: {max_angular: 0.3}\n",
-        )
-        .unwrap();
+        );
         let args = format!(
             "--params-file {} --ros-args --params-file {} -p chassis_bridge:cmd_timeout:=0.25 \
              -p publish_tf:=false -p other:backend:=serial",
@@ -670,13 +675,10 @@ mod tests {
 
     #[test]
     fn a_typo_at_the_top_of_the_block_is_refused_naming_the_key_and_the_file() {
-        let path: PathBuf =
-            std::env::temp_dir().join(format!("chassis-bridge-typo-{}.yaml", std::process::id()));
-        std::fs::write(
-            &path,
+        let path = temp_file(
+            "typo",
             "chassis_bridge:\n  ros__parameters:\n    backnd: serial\n",
-        )
-        .unwrap();
+        );
         let result = parameters_of(&format!("--params-file {}", path.display()));
         let _ = std::fs::remove_file(&path);
         let message = result.unwrap_err().to_string();
