@@ -122,10 +122,7 @@ const TF: &str = "/tf";
 /// The parameters `line` gives (`default` first when it names no file and exists), with what
 /// was read past.
 fn parameters(line: &CommandLine, default: &Path) -> Result<(Params, Vec<String>)> {
-    let mut sources = line.parameters.clone();
-    if line.params_files().next().is_none() && default.exists() {
-        sources.insert(0, ParameterSource::File(default.to_owned()));
-    }
+    let sources = line.parameter_sources(default);
     for source in &sources {
         match source {
             ParameterSource::File(f) => info!("parameters from {}", f.display()),

@@ -48,11 +48,7 @@ fn main() -> ExitCode {
     };
     // Every --params-file and -p in order (config/planner.yaml first when no file is given and
     // it exists), applied with rclcpp's precedence (planner_io::parameters::load_parameters_for).
-    let default = Path::new("config/planner.yaml");
-    let mut sources = line.parameters.clone();
-    if line.params_files().next().is_none() && default.exists() {
-        sources.insert(0, ParameterSource::File(default.to_owned()));
-    }
+    let sources = line.parameter_sources(Path::new("config/planner.yaml"));
     let params = if sources.is_empty() {
         log::warn!("no config/planner.yaml here and no --params-file: built-in defaults, no map until /map arrives");
         ParameterFile::default()

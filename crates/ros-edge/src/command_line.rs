@@ -80,6 +80,17 @@ impl CommandLine {
             ParameterSource::Override(_) => None,
         })
     }
+
+    /// Every file and rule, in order, with the binary's bundled file `default` first when the
+    /// command line names no file and `default` exists (as `config/planner.yaml` is read when
+    /// a user runs the node from the repository without arguments).
+    pub fn parameter_sources(&self, default: &Path) -> Vec<ParameterSource> {
+        let mut sources = self.parameters.clone();
+        if self.params_files().next().is_none() && default.exists() {
+            sources.insert(0, ParameterSource::File(default.to_owned()));
+        }
+        sources
+    }
 }
 
 #[cfg(test)]
@@ -167,5 +178,33 @@ mod tests {
         assert!(line(&long).unwrap_err().contains("dotted parts"));
         let deep = format!("--ros-args -p x:={}", "[".repeat(10_000));
         assert!(line(&deep).unwrap_err().contains("-p x:="));
+    }
+
+    /// The bundled file comes first when no file is named, and only if it exists; a named
+    /// file replaces it.
+    #[test]
+    fn the_bundled_file_is_read_when_none_is_named() {
+        let bundled = Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml");
+        let files = |args: &str, default: &Path| -> Vec<String> {
+            line(args)
+                .unwrap()
+                .parameter_sources(default)
+                .iter()
+                .map(|s| match s {
+                    ParameterSource::File(f) => f.display().to_string(),
+                    ParameterSource::Override(o) => o.given.clone(),
+                })
+                .collect()
+        };
+        let rule = "--ros-args -p planner:=astar";
+        assert_eq!(
+            files(rule, &bundled),
+            [bundled.display().to_string(), "-p planner:=astar".into()]
+        );
+        assert_eq!(
+            files(rule, Path::new("no/such.yaml")),
+            ["-p planner:=astar"]
+        );
+        assert_eq!(files("--params-file mine.yaml", &bundled), ["mine.yaml"]);
     }
 }
