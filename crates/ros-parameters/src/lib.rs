@@ -408,7 +408,8 @@ impl Layers {
         });
     }
 
-    /// The node's values: the own layer over the wildcard's. A plain rule that the node's own
+    /// The node's values: the own layer over the wildcard's, taken out of the layers (so once,
+    /// after [`Layers::drop_other_nodes_wildcard_keys`]). A plain rule that the node's own
     /// value overrides does nothing, as in rclcpp: said in a warning with the rule to write (a
     /// mapping value merges key by key, so only a scalar or a list is said to be overridden).
     pub fn merge(&mut self) -> Mapping {
