@@ -157,4 +157,3 @@ def test_the_bridges_parameters_are_read_only_ros_parameters(ros, bridge):
     request = SetParameters.Request(parameters=[Parameter(name="limits.max_linear", value=faster)])
     result = call_service(ros, SetParameters, "/chassis_bridge/set_parameters", request).results[0]
     assert not result.successful and "read at start only" in result.reason, result
-
