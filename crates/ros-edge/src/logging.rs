@@ -74,7 +74,7 @@ fn default_filter(own: &[&str]) -> String {
         .join(",")
 }
 
-/// Installs the logger: `RUST_LOG` filtering (by default [`default_filter`]), and records whose
+/// Installs the logger: `RUST_LOG` filtering (by default `default_filter`), and records whose
 /// module path starts with one of `own` also to `/rosout` once [`forward_to_rosout`] is called.
 pub fn init(own: &'static [&'static str]) {
     let terminal = env_logger::Builder::from_env(

@@ -339,7 +339,7 @@ impl Planner for ColonyPlanner {
 
     /// The walks an iteration keeps, each at most the step budget long (8 B per cell): the
     /// ant's own buffer, the best walk and a rerouted copy of it, and, under the pulled judge,
-    /// the [`PULLED_PER_ITERATION`] shortest (one more while a walk is inserted); for the
+    /// the `PULLED_PER_ITERATION` shortest (one more while a walk is inserted); for the
     /// baselines' ant system, every arriving walk until the deposit (4 B per cell, twice for
     /// the buffer's growth). The seed's path (A*'s or the field's), which may be longer, is not
     /// counted: it is the one path every seeded planner holds.

@@ -96,7 +96,7 @@ pub struct GaParams {
     /// evolution is the paper's (selection, patience and the convergence curve follow the
     /// fitness), but the answer starts as the seed and is replaced by each path that straightens
     /// (the delete operation `solve` applies) into a shorter or smoother one than the answer so
-    /// far, worse on neither: each generation the [`PULLED_PER_GENERATION`] shortest individuals
+    /// far, worse on neither: each generation the `PULLED_PER_GENERATION` shortest individuals
     /// not judged before are straightened and offered. The fittest cell path weighs safety and
     /// the staircase's own turns, and after the delete operation it was seldom both shorter and
     /// smoother than the field's path it started from (issue 12: better than the seed on 4-26 %

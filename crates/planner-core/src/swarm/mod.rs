@@ -14,7 +14,7 @@
 //!
 //! Every swarm is seeded by the potential field (APF path, or A* when the field cannot escape a
 //! local minimum; the result says which), or, with the safety objective weighted (the default),
-//! by cost-aware A*'s path straightened weighing the same cost ([`seed_path`]): its path is the
+//! by cost-aware A*'s path straightened weighing the same cost (`seed_path`): its path is the
 //! first global best and the centre around which the population starts. A cat in seeking mode makes SMP copies, keeps one and moves CDC of
 //! the others' dimensions by `sigma * C` with `sigma = SRD * range` and `C` standard Cauchy
 //! (`docs/papers.md`: the paper's "C(0, 1) uniform" contradicts the operator's name; `mutation:

@@ -3,7 +3,7 @@
 //! the baseline every multi-objective planner is compared to (issue 12).
 //!
 //! It lives beside the swarms because it searches exactly what they search: the same seed and
-//! encoding ([`super::start`]), the same objectives and constraint (`Search::evaluate`: length,
+//! encoding (`super::start`), the same objectives and constraint (`Search::evaluate`: length,
 //! turning, safety when weighted, blocked length as the violation, constraint domination), the
 //! same initial cloud around the seed (`init_spread`) and the same eq. 19-21 choice from its
 //! final front. Only the search operators differ, and they are NSGA-II's with pymoo's defaults:
