@@ -71,7 +71,12 @@ pub mod std_msgs {
     pub struct Empty {
         pub structure_needs_at_least_one_member: u8,
     }
-    messages!(Header, ColorRGBA, Float64MultiArray, Empty);
+    /// std_msgs/Bool: a switch's state (Nav2's BinaryFilter publishes one)
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct Bool {
+        pub data: bool,
+    }
+    messages!(Header, ColorRGBA, Float64MultiArray, Empty, Bool);
 }
 
 /// A 6 x 6 row-major covariance (`float64[36]`). serde derives arrays only up to 32, so this
@@ -537,8 +542,7 @@ pub mod nav2_msgs {
         pub const SPEED_PERCENT: u8 = 1;
         /// A speed filter, its mask in m/s.
         pub const SPEED_ABSOLUTE: u8 = 2;
-        /// A binary filter (a mask switching a parameter on and off), which this node does not
-        /// run.
+        /// A binary filter: its mask's filter values switch a state on and off.
         pub const BINARY: u8 = 3;
     }
     /// nav2_msgs/srv/LoadMap request (map_server's `load_map`): the map's YAML, a path

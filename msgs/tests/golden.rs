@@ -633,6 +633,7 @@ fn lifecycle_and_nav2_types_match_rclpy() {
         g::SPEED_LIMIT,
     );
     check("Empty", Empty::default(), g::EMPTY);
+    check("Bool", Bool { data: true }, g::BOOL);
     check(
         "Clock",
         patrol_msgs::rosgraph_msgs::Clock {

@@ -4,7 +4,7 @@ Rust constants for golden.rs. Run from the repository root with the test venv:
 The values here must match the ones golden.rs builds."""
 from rclpy.serialization import serialize_message
 from builtin_interfaces.msg import Time
-from std_msgs.msg import Header, ColorRGBA, Empty, Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Bool, Header, ColorRGBA, Empty, Float64MultiArray, MultiArrayDimension
 from geometry_msgs.msg import (Point, Pose, PoseStamped, PoseWithCovarianceStamped, Quaternion,
                                Transform, TransformStamped, Twist, TwistStamped, Vector3)
 from nav_msgs.msg import OccupancyGrid, Path, Odometry
@@ -189,6 +189,7 @@ def messages():
     out["GET_MAP_REQUEST"] = GetMap.Request()
     out["GET_MAP_RESPONSE"] = GetMap.Response(map=grid)
     out["EMPTY"] = Empty()
+    out["BOOL"] = Bool(data=True)
     clock = Clock()
     clock.clock.sec, clock.clock.nanosec = 1234, 500000000
     out["CLOCK"] = clock
