@@ -20,7 +20,8 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
   new map blocks and whose replan fails.
 - A speed limit on `speed_limit` (nav2_msgs/SpeedLimit, as Nav2's speed filter sends it) slows
   the drive; 0 lifts it. A speed zone, as Nav2's speed filter makes one from the mask its
-  CostmapFilterInfo names, slows the drive inside it and only there.
+  CostmapFilterInfo names, slows the drive inside it and only there. A binary zone, as Nav2's
+  binary filter makes one, switches the state it publishes where the robot stands.
 - The costmaps as nav2_simple_commander asks for them: getGlobalCostmap() (GetCostmap) the room's
   grid, the pillar lethal, its inflated band inscribed, the open floor free; getLocalCostmap() a
   3 m window of it round the robot; clearAllCostmaps() and the other clearing services answered,
@@ -102,6 +103,7 @@ def rig(tmp_path):
         f"    progress_checker: {{movement_time_allowance: {ALLOWANCE}}}\n"
         f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
         "    speed_filter_info_topic: /speed_filter_info\n"
+        "    binary_filter: {filter_info_topic: /binary_filter_info}\n"
         f"    input_at_waypoint: {{enabled: true, timeout: {INPUT_TIMEOUT}}}\n"
     )
     proc = start_node(domain, params, "patrol_planner_recovery_test.log")
@@ -329,6 +331,46 @@ def test_a_speed_zone_slows_the_drive_inside_it_as_nav2s_speed_filter(rig):
     log = (ROOT / "target" / "patrol_planner_recovery_test.log").read_text()
     zone = [line for line in log.splitlines() if "speed zone:" in line]
     assert [line.split("speed zone: ")[1] for line in zone] == ["driving at most 0.300 m/s", "no limit here"], zone
+
+
+def test_a_binary_zone_switches_the_state_where_the_robot_stands_as_nav2s_binary_filter(rig):
+    """Nav2's binary filter: costmap_filter_info_server latches a CostmapFilterInfo (type 3;
+    base 0, multiplier 1) naming the binary mask's topic. The state on `binary_state` (latched)
+    is false at start (Nav2's default_state), true where the robot stands in the 100 zone at
+    x 2.0-3.5 m (above flip_threshold 50), unchanged on an unknown cell, false again on free
+    cells and off the mask. The test moves the robot by its odometry."""
+    from nav2_msgs.msg import CostmapFilterInfo
+    from nav_msgs.msg import OccupancyGrid
+    from std_msgs.msg import Bool
+
+    from conftest import LATCHED
+
+    ros, robot, _ = rig
+    states = []
+    ros.node.create_subscription(Bool, "/binary_state", lambda m: states.append(m.data), LATCHED)
+    ros.spin_until(lambda: states == [False], 20, "the state at start, latched")
+    info_pub = ros.node.create_publisher(CostmapFilterInfo, "/binary_filter_info", LATCHED)
+    mask_pub = ros.node.create_publisher(OccupancyGrid, "/binary_filter_mask", LATCHED)
+    mask = np.zeros((30, 60), dtype=np.int8)
+    mask[:, 20:35] = 100
+    mask[:, 40:45] = -1
+    mask_pub.publish(grid_msg(mask, (0.0, 0.0), 0.1))
+    ros.wait_matched(info_pub, "/binary_filter_info")
+    info_pub.publish(CostmapFilterInfo(type=3, filter_mask_topic="/binary_filter_mask", base=0.0, multiplier=1.0))
+    ros.spin_until(lambda: mask_pub.get_subscription_count() > 0, 20, "the node on the binary mask's topic")
+    ros.spin_for(0.5)
+    assert states == [False], "the robot at the start stands on a free cell"
+    for x, expected, why in [
+        (3.0, [False, True], "in the zone"),
+        (4.2, [False, True], "an unknown cell leaves the state as it is"),
+        (7.0, [False, True, False], "off the mask: the default"),
+        (3.0, [False, True, False, True], "in the zone again"),
+        (1.0, [False, True, False, True, False], "a free cell"),
+    ]:
+        robot.x = x
+        ros.spin_until(lambda: states == expected, 10, f"the state at x {x} ({why})")
+        ros.spin_for(0.3)
+        assert states == expected, (x, why, states)
 
 
 def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):

@@ -121,6 +121,9 @@ pub struct NodeParams {
     /// drives under (0 no limit), as if sent on `speed_limit_topic`. Only with `follow_plan`.
     /// Empty (default): none.
     pub speed_filter_info_topic: String,
+    /// Nav2's BinaryFilter: zones where the robot's being switches something (a camera off in
+    /// a sensitive room, lights on indoors), published as a std_msgs/Bool. Off by default.
+    pub binary_filter: BinaryFilterParams,
     /// Stamp with the simulation's time, the latest rosgraph_msgs/Clock on `/clock`, as every
     /// node of a simulated Nav2 stack does (its launch files set it on them all); zero until
     /// the first arrives. Durations (timeouts, allowances) are still measured on the system
@@ -236,6 +239,48 @@ impl Default for InputAtWaypointParams {
     }
 }
 
+/// Nav2's BinaryFilter (a costmap filter plugin; these are its parameter names and defaults,
+/// the block Nav2 writes under the filter's name): the nav2_msgs/CostmapFilterInfo of type 3
+/// that costmap_filter_info_server latches on `filter_info_topic` names a mask; where the robot
+/// stands on it, a filter value `base + value * multiplier` above `flip_threshold` switches the
+/// state to the opposite of `default_state`, and each change is published on
+/// `binary_state_topic`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BinaryFilterParams {
+    /// Run the filter when `filter_info_topic` is set. Default true, as every Nav2 layer.
+    pub enabled: bool,
+    /// Where the filter info arrives (e.g. `/binary_filter_info`). Empty (default): no filter.
+    pub filter_info_topic: String,
+    /// Where the state goes out, std_msgs/Bool, latched (reliable, transient local), so that a
+    /// node started later reads the state in force. Nav2's default `binary_state`; relative
+    /// names are in the node's namespace.
+    pub binary_state_topic: String,
+    /// The state outside every zone, off the mask and at start. Default false.
+    pub default_state: bool,
+    /// The filter value above which the state flips. Default 50.
+    pub flip_threshold: f64,
+}
+
+impl Default for BinaryFilterParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            filter_info_topic: String::new(),
+            binary_state_topic: "binary_state".into(),
+            default_state: false,
+            flip_threshold: 50.0,
+        }
+    }
+}
+
+impl BinaryFilterParams {
+    /// Whether the node runs the filter: enabled and given a filter info topic.
+    pub fn runs(&self) -> bool {
+        self.enabled && !self.filter_info_topic.is_empty()
+    }
+}
+
 /// Nav2's behavior server (nav2_behaviors), which serves the `spin`, `backup`,
 /// `drive_on_heading` and `wait` actions and makes the recoveries' motions.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -317,6 +362,7 @@ impl Default for NodeParams {
             keepout_filter_info_topic: String::new(),
             speed_limit_topic: "speed_limit".into(),
             speed_filter_info_topic: String::new(),
+            binary_filter: BinaryFilterParams::default(),
             use_sim_time: false,
             order_waypoints: true,
             waypoint_pause_duration: 0.0,
@@ -383,6 +429,15 @@ impl NodeParams {
         {
             return Err(
                 "recovery: number_of_retries at most 100, wait_duration within 0..=600 s, time_allowance within 0.1..=600 s, spin_dist within +-4 pi rad, backup_dist within 0.01..=5 m, backup_speed within 0.01..=1 m/s, behaviors 1 to 16 of spin, wait, backup"
+                    .into(),
+            );
+        }
+        let binary = &self.binary_filter;
+        if !binary.flip_threshold.is_finite()
+            || (binary.runs() && binary.binary_state_topic.is_empty())
+        {
+            return Err(
+                "binary_filter: flip_threshold must be finite, and a filter_info_topic needs a binary_state_topic"
                     .into(),
             );
         }
@@ -1297,6 +1352,34 @@ mod tests {
                 "info_and_costmap.yaml",
                 "    keepout_filter_info_topic: /info\n    costmap_topic: /global_costmap/costmap\n",
                 "keepout_filter_info_topic (`/info`)",
+            ),
+        ] {
+            assert_refused(name, block, key);
+        }
+        // Nav2's BinaryFilter block, as Nav2 writes it under the filter's name; its defaults
+        // where not given.
+        let binary = write(
+            "binary.yaml",
+            "    binary_filter: {filter_info_topic: /binary_filter_info, flip_threshold: 30.0}\n",
+        );
+        let read = load_parameter_file(&binary).unwrap().node.binary_filter;
+        assert!(read.runs() && read.flip_threshold == 30.0 && !read.default_state);
+        assert_eq!(read.binary_state_topic, "binary_state");
+        for (name, block, key) in [
+            (
+                "binary_nan.yaml",
+                "    binary_filter: {filter_info_topic: /i, flip_threshold: .nan}\n",
+                "binary_filter: flip_threshold",
+            ),
+            (
+                "binary_topic.yaml",
+                "    binary_filter: {filter_info_topic: /i, binary_state_topic: ''}\n",
+                "binary_state_topic",
+            ),
+            (
+                "binary_typo.yaml",
+                "    binary_filter: {filter_info_topc: /i}\n",
+                "filter_info_topc",
             ),
         ] {
             assert_refused(name, block, key);

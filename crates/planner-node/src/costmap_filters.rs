@@ -1,4 +1,5 @@
-//! Nav2's costmap filters for the node's own costmap and drive: keepout zones and speed zones.
+//! Nav2's costmap filters for the node's own costmap and drive: keepout, speed and binary
+//! zones.
 //!
 //! - Keepout (Nav2's KeepoutFilter): a mask (nav_msgs/OccupancyGrid) latched by a filter mask
 //!   server is laid over the grid the node plans on (`keepout_mask_topic`, or the topic named
@@ -6,6 +7,9 @@
 //! - Speed (Nav2's SpeedFilter, with `follow_plan`): the mask cell under the robot, through
 //!   the info's `base + value * multiplier`, is the speed limit the follower drives under, in
 //!   percent of the top speed or in m/s, as a SpeedLimit on `speed_limit_topic` would set it.
+//! - Binary (Nav2's BinaryFilter, `binary_filter`): the mask cell under the robot, through the
+//!   info's `base + value * multiplier`, switches a state (std_msgs/Bool on
+//!   `binary_filter.binary_state_topic`) when it passes `flip_threshold`.
 //!
 //! As Nav2's filters, the node finds a mask through a nav2_msgs/CostmapFilterInfo latched by
 //! costmap_filter_info_server: a new info moves the node to its mask topic, and the last good
@@ -19,13 +23,14 @@ use crate::state::Shared;
 use log::{debug, error, info, warn};
 use patrol_msgs::nav2_msgs::{CostmapFilterInfo, SpeedLimit};
 use patrol_msgs::nav_msgs::OccupancyGrid;
+use patrol_msgs::std_msgs::Bool;
 use planner_core::geometry::Point2;
 use planner_core::grid::GridMap;
-use ros2_client::{MessageTypeName, Name, Node, Subscription};
+use ros2_client::{MessageTypeName, Name, Node, Publisher, Subscription};
 use ros_edge::naming::Naming;
 use std::future::Future;
 use std::pin::Pin;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, RwLock};
 use std::time::Duration;
 
 /// The filters the node runs, each as its Nav2 namesake.
@@ -33,6 +38,7 @@ use std::time::Duration;
 pub enum Filter {
     Keepout,
     Speed,
+    Binary,
 }
 
 impl Filter {
@@ -40,8 +46,48 @@ impl Filter {
         match self {
             Filter::Keepout => "keepout",
             Filter::Speed => "speed",
+            Filter::Binary => "binary",
         }
     }
+
+    /// The parameter that names this filter's info topic, for messages.
+    fn info_parameter(self) -> &'static str {
+        match self {
+            Filter::Keepout => "keepout_filter_info_topic",
+            Filter::Speed => "speed_filter_info_topic",
+            Filter::Binary => "binary_filter.filter_info_topic",
+        }
+    }
+
+    /// The filter of an info's type, as Nav2's CostmapFilterInfo numbers them.
+    fn of_type(info_type: u8) -> Option<Filter> {
+        match info_type {
+            CostmapFilterInfo::KEEPOUT => Some(Filter::Keepout),
+            CostmapFilterInfo::SPEED_PERCENT | CostmapFilterInfo::SPEED_ABSOLUTE => {
+                Some(Filter::Speed)
+            }
+            CostmapFilterInfo::BINARY => Some(Filter::Binary),
+            _ => None,
+        }
+    }
+
+    /// Where this filter's zones are kept: none for keepout, whose mask goes into the grid.
+    fn zones(self, s: &Shared) -> Option<&RwLock<Zones>> {
+        match self {
+            Filter::Keepout => None,
+            Filter::Speed => Some(&s.speed_zones),
+            Filter::Binary => Some(&s.binary_zones),
+        }
+    }
+}
+
+/// How a zone mask's values read, from its filter info.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reading {
+    /// A speed mask's limits (info types 1 and 2).
+    Speed(SpeedConversion),
+    /// A binary mask's filter values (info type 3), `base + value * multiplier`.
+    Binary { base: f64, multiplier: f64 },
 }
 
 /// How a speed mask's values read as limits: Nav2's SpeedFilter's `base + value * multiplier`,
@@ -84,13 +130,13 @@ impl SpeedConversion {
     }
 }
 
-/// The speed zones in force: the last good speed mask and how it reads, and how the next
+/// The speed or binary zones in force: the last good mask and how it reads, and how the next
 /// mask will read when the info moved to another topic (the old mask is not read in the new
 /// topic's units: the new scale goes into force with the new topic's first mask).
 #[derive(Default)]
-pub struct SpeedZones {
-    pub conversion: Option<SpeedConversion>,
-    pub pending: Option<SpeedConversion>,
+pub struct Zones {
+    pub reading: Option<Reading>,
+    pub pending: Option<Reading>,
     pub mask: Option<Arc<GridMap>>,
 }
 
@@ -99,7 +145,8 @@ pub struct SpeedZones {
 /// force. A keepout mask is kept for every grid made from now on; the current grid is made
 /// again under it at once, and the path being followed checked against it
 /// (`inputs::remake_grid_on_change`): a path through a new keepout zone is planned again. A
-/// speed mask is read at the robot's pose from the next control tick ([`limit_speed_in_zones`]).
+/// speed or binary mask is read at the robot's pose from the next control tick
+/// ([`limit_speed_in_zones`], [`switch_in_zones`]).
 /// A mask refused is reported on `/diagnostics` and the last good one stays.
 pub async fn receive_masks(
     s: Arc<Shared>,
@@ -132,14 +179,14 @@ pub async fn receive_masks(
             Ok(Ok(mask)) => {
                 let info = *mask.info();
                 let mask = Some(Arc::new(mask));
-                match filter {
-                    Filter::Keepout => *s.keepout.write().expect("lock") = mask,
-                    Filter::Speed => {
-                        let mut zones = s.speed_zones.write().expect("lock");
+                match filter.zones(&s) {
+                    None => *s.keepout.write().expect("lock") = mask,
+                    Some(zones) => {
+                        let mut zones = zones.write().expect("lock");
                         zones.mask = mask;
                         // A new topic's first mask brings its info's scale with it.
-                        if let Some(conversion) = zones.pending.take() {
-                            zones.conversion = Some(conversion);
+                        if let Some(reading) = zones.pending.take() {
+                            zones.reading = Some(reading);
                         }
                     }
                 }
@@ -174,9 +221,9 @@ const MAX_MASK_READERS: usize = 64;
 /// `filter_info_topic`: each good one (of this filter's kind, naming a valid topic) subscribes
 /// the node to its mask topic, latched, in place of the previous one, and its masks are taken
 /// by [`receive_masks`]; the last good mask stays in force until the new topic's first. A
-/// speed filter's info says how its mask reads ([`SpeedZones`]): at once for the mask in force
-/// when the topic is the same (the same mask server, rescaled: its reader goes on), else with
-/// the new topic's first mask. An info refused (another filter's, no topic, past
+/// speed or binary filter's info says how its mask reads ([`Zones`]): at once for the mask in
+/// force when the topic is the same (the same mask server, rescaled: its reader goes on), else
+/// with the new topic's first mask. An info refused (another filter's, no topic, past
 /// [`MAX_MASK_READERS`]) is reported on `/diagnostics` and the node stays on the mask topic it
 /// had.
 pub async fn receive_filter_info(
@@ -214,13 +261,13 @@ pub async fn receive_filter_info(
             debug!("{info_topic}: the info in force again");
             continue;
         }
-        let named = read_info(&info, filter).and_then(|(topic, conversion)| {
+        let named = read_info(&info, filter).and_then(|(topic, reading)| {
             let name = naming
                 .name(topic)
                 .map_err(|e| format!("filter_mask_topic `{topic}`: {e}"))?;
-            Ok((name, conversion))
+            Ok((name, reading))
         });
-        let (name, conversion) = match named {
+        let (name, reading) = match named {
             Ok(named) => named,
             Err(why) => {
                 refuse_info(&s, &o, kind, &info_topic, why).await;
@@ -239,12 +286,12 @@ pub async fn receive_filter_info(
             // The same topic, rescaled: its reader goes on (a mask it is taking in is not
             // lost), and the new scale applies to the mask in force at once (or, while the
             // topic's first mask is awaited, to that one).
-            if conversion.is_some() {
-                let mut zones = s.speed_zones.write().expect("lock");
+            if let (Some(reading), Some(zones)) = (reading, filter.zones(&s)) {
+                let mut zones = zones.write().expect("lock");
                 if zones.pending.is_some() {
-                    zones.pending = conversion;
+                    zones.pending = Some(reading);
                 } else {
-                    zones.conversion = conversion;
+                    zones.reading = Some(reading);
                 }
             }
             info!("{info_topic}: the {kind} mask on {topic} read anew");
@@ -271,8 +318,8 @@ pub async fn receive_filter_info(
             }
         };
         readers_made += 1;
-        if conversion.is_some() {
-            s.speed_zones.write().expect("lock").pending = conversion;
+        if let (Some(reading), Some(zones)) = (reading, filter.zones(&s)) {
+            zones.write().expect("lock").pending = Some(reading);
         }
         info!("{info_topic}: {kind} masks from {topic}");
         masks = Box::pin(receive_masks(
@@ -304,7 +351,9 @@ pub async fn limit_speed_in_zones(s: Arc<Shared>) {
         };
         let read = {
             let zones = s.speed_zones.read().expect("lock");
-            let (Some(conversion), Some(mask)) = (zones.conversion, zones.mask.as_ref()) else {
+            let (Some(Reading::Speed(conversion)), Some(mask)) =
+                (zones.reading, zones.mask.as_ref())
+            else {
                 continue;
             };
             speed_limit_at(mask, conversion, Point2::new(pose.x, pose.y))
@@ -330,54 +379,138 @@ fn speed_limit_at(mask: &GridMap, conversion: SpeedConversion, at: Point2) -> Op
     conversion.limit(mask.value(cell))
 }
 
+/// The binary filter at work, as Nav2's BinaryFilter runs in its costmap's update: at the
+/// node's control rate, the binary mask's cell under the robot (latest `/odom`) is read as
+/// `base + value * multiplier`; above `flip_threshold` the state is the opposite of
+/// `default_state`, else `default_state`, and so it is off the mask. An unknown cell, or no
+/// fresh odometry, leaves the state as it is. The state goes out at start, as Nav2's filter
+/// starts, and then on each change only (Nav2 publishes the default again on every update
+/// while the robot is off the mask; the topic is latched, so a node started later reads the
+/// state in force either way).
+pub async fn switch_in_zones(s: Arc<Shared>, state_pub: Publisher<Bool>, topic: String) {
+    let params = s.params.binary_filter.clone();
+    let mut state = params.default_state;
+    publish_state(&state_pub, &topic, state).await;
+    info!(
+        "binary filter: its state on {topic}, {} at start",
+        on_off(state)
+    );
+    let mut ticker = tokio::time::interval(Duration::from_secs_f64(1.0 / s.params.control_rate_hz));
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        ticker.tick().await;
+        let Some(pose) = s.fresh_odom() else {
+            continue;
+        };
+        let read = {
+            let zones = s.binary_zones.read().expect("lock");
+            let (Some(Reading::Binary { base, multiplier }), Some(mask)) =
+                (zones.reading, zones.mask.as_ref())
+            else {
+                continue;
+            };
+            let under = filter_value_at(mask, base, multiplier, Point2::new(pose.x, pose.y));
+            binary_state(under, params.flip_threshold, params.default_state)
+        };
+        if let Some(next) = read {
+            if next != state {
+                state = next;
+                publish_state(&state_pub, &topic, state).await;
+                info!("binary filter: switched {}", on_off(state));
+            }
+        }
+    }
+}
+
+async fn publish_state(publisher: &Publisher<Bool>, topic: &str, state: bool) {
+    if let Err(e) = publisher.async_publish(Bool { data: state }).await {
+        warn!("{topic}: {e:?}");
+    }
+}
+
+fn on_off(state: bool) -> &'static str {
+    if state {
+        "on"
+    } else {
+        "off"
+    }
+}
+
+/// What a binary mask says where the robot is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum UnderRobot {
+    /// The robot is off the mask.
+    OffMask,
+    /// The cell is unknown (-1).
+    Unknown,
+    /// The cell's filter value, `base + value * multiplier`.
+    Value(f64),
+}
+
+/// What the binary mask says at `at`, its values read through `base` and `multiplier`.
+fn filter_value_at(mask: &GridMap, base: f64, multiplier: f64, at: Point2) -> UnderRobot {
+    match mask.info().world_to_cell(at).map(|cell| mask.value(cell)) {
+        None => UnderRobot::OffMask,
+        Some(-1) => UnderRobot::Unknown,
+        Some(v) => UnderRobot::Value(base + f64::from(v) * multiplier),
+    }
+}
+
+/// The state Nav2's BinaryFilter puts in force for what the mask says under the robot: the
+/// default off the mask, the opposite above the threshold; none (the state stays) on an
+/// unknown cell.
+fn binary_state(under: UnderRobot, flip_threshold: f64, default_state: bool) -> Option<bool> {
+    match under {
+        UnderRobot::OffMask => Some(default_state),
+        UnderRobot::Unknown => None,
+        UnderRobot::Value(v) => Some(if v > flip_threshold {
+            !default_state
+        } else {
+            default_state
+        }),
+    }
+}
+
 /// Whether two infos describe the same filter (their stamps aside).
 fn same_filter(a: &CostmapFilterInfo, b: &CostmapFilterInfo) -> bool {
     (a.r#type, &a.filter_mask_topic, a.base, a.multiplier)
         == (b.r#type, &b.filter_mask_topic, b.base, b.multiplier)
 }
 
-/// The mask topic `filter`'s info names, with (a speed filter's) how its mask reads, or why
-/// the info is none of `filter`'s.
-fn read_info(
-    info: &CostmapFilterInfo,
-    filter: Filter,
-) -> Result<(&str, Option<SpeedConversion>), String> {
-    let conversion = match (filter, info.r#type) {
-        (Filter::Keepout, CostmapFilterInfo::KEEPOUT) => None,
-        (Filter::Speed, CostmapFilterInfo::SPEED_PERCENT | CostmapFilterInfo::SPEED_ABSOLUTE) => {
-            if !(info.base.is_finite() && info.multiplier.is_finite()) {
-                return Err(format!(
-                    "base {} and multiplier {} must be finite",
-                    info.base, info.multiplier
-                ));
-            }
-            Some(SpeedConversion {
-                percentage: info.r#type == CostmapFilterInfo::SPEED_PERCENT,
-                base: f64::from(info.base),
-                multiplier: f64::from(info.multiplier),
-            })
-        }
-        (Filter::Keepout, CostmapFilterInfo::SPEED_PERCENT | CostmapFilterInfo::SPEED_ABSOLUTE) => {
-            return Err(format!(
-                "type {} is a speed filter's (0 is keepout): give it to speed_filter_info_topic",
-                info.r#type
-            ))
-        }
-        (Filter::Speed, CostmapFilterInfo::KEEPOUT) => {
-            return Err(
-                "type 0 is a keepout filter's (1 and 2 are speed): give it to keepout_filter_info_topic"
-                    .into(),
-            )
-        }
-        (_, CostmapFilterInfo::BINARY) => {
-            return Err("type 3 is a binary filter's, which this node does not run".into())
-        }
-        (_, other) => return Err(format!("type {other} is no filter Nav2 knows")),
+/// The mask topic `filter`'s info names, with (a speed or binary filter's) how its mask
+/// reads, or why the info is none of `filter`'s.
+fn read_info(info: &CostmapFilterInfo, filter: Filter) -> Result<(&str, Option<Reading>), String> {
+    let Some(of_type) = Filter::of_type(info.r#type) else {
+        return Err(format!("type {} is no filter Nav2 knows", info.r#type));
+    };
+    if of_type != filter {
+        return Err(format!(
+            "type {} is a {} filter's: give it to {}",
+            info.r#type,
+            of_type.name(),
+            of_type.info_parameter()
+        ));
+    }
+    if filter != Filter::Keepout && !(info.base.is_finite() && info.multiplier.is_finite()) {
+        return Err(format!(
+            "base {} and multiplier {} must be finite",
+            info.base, info.multiplier
+        ));
+    }
+    let (base, multiplier) = (f64::from(info.base), f64::from(info.multiplier));
+    let reading = match filter {
+        Filter::Keepout => None,
+        Filter::Speed => Some(Reading::Speed(SpeedConversion {
+            percentage: info.r#type == CostmapFilterInfo::SPEED_PERCENT,
+            base,
+            multiplier,
+        })),
+        Filter::Binary => Some(Reading::Binary { base, multiplier }),
     };
     if info.filter_mask_topic.is_empty() {
         return Err("no filter_mask_topic".into());
     }
-    Ok((&info.filter_mask_topic, conversion))
+    Ok((&info.filter_mask_topic, reading))
 }
 
 /// A latched reader of the masks on `name` (resolved as every name of the node is), as
@@ -448,20 +581,49 @@ mod tests {
             read_info(&speed, Filter::Speed),
             Ok((
                 "/speed_filter_mask",
-                Some(SpeedConversion {
+                Some(Reading::Speed(SpeedConversion {
                     percentage: true,
                     base: 100.0,
                     multiplier: -1.0
-                })
+                }))
             ))
         );
         let absolute = info(2, "/m", 0.0, 0.01);
+        assert!(matches!(
+            read_info(&absolute, Filter::Speed),
+            Ok((
+                _,
+                Some(Reading::Speed(SpeedConversion {
+                    percentage: false,
+                    ..
+                }))
+            ))
+        ));
+        let binary = info(3, "/binary_filter_mask", 0.0, 1.0);
+        assert_eq!(
+            read_info(&binary, Filter::Binary),
+            Ok((
+                "/binary_filter_mask",
+                Some(Reading::Binary {
+                    base: 0.0,
+                    multiplier: 1.0
+                })
+            ))
+        );
+        for other in [Filter::Keepout, Filter::Speed] {
+            let err = read_info(&binary, other).unwrap_err();
+            assert!(
+                err.contains("binary filter") && err.contains("binary_filter.filter_info_topic"),
+                "{err}"
+            );
+        }
+        assert!(read_info(&speed, Filter::Binary)
+            .unwrap_err()
+            .contains("speed_filter_info_topic"));
         assert!(
-            !read_info(&absolute, Filter::Speed)
-                .unwrap()
-                .1
-                .unwrap()
-                .percentage
+            read_info(&info(3, "/m", 0.0, f32::INFINITY), Filter::Binary)
+                .unwrap_err()
+                .contains("finite")
         );
         assert!(read_info(&keepout, Filter::Speed)
             .unwrap_err()
@@ -565,5 +727,44 @@ mod tests {
         assert_eq!(at(2.7), Some(20.0));
         assert_eq!(at(0.5), None, "off the mask");
         assert_eq!(at(3.2), None, "off the mask");
+    }
+
+    #[test]
+    fn the_binary_state_flips_above_the_threshold_as_nav2s_binary_filter() {
+        // A 4 x 1 mask of 0.5 m cells from x = 1: free, 100, unknown, 50.
+        let mask = GridMap::new(
+            MapInfo {
+                resolution: 0.5,
+                width: 4,
+                height: 1,
+                origin: Pose2 {
+                    x: 1.0,
+                    y: 0.0,
+                    yaw: 0.0,
+                },
+            },
+            vec![0, 100, -1, 50],
+        )
+        .unwrap();
+        let under = |x| filter_value_at(&mask, 0.0, 1.0, Point2::new(x, 0.25));
+        assert_eq!(under(1.2), UnderRobot::Value(0.0));
+        assert_eq!(under(1.7), UnderRobot::Value(100.0));
+        assert_eq!(under(2.2), UnderRobot::Unknown);
+        assert_eq!(under(0.5), UnderRobot::OffMask);
+        assert_eq!(
+            filter_value_at(&mask, 10.0, -0.5, Point2::new(1.7, 0.25)),
+            UnderRobot::Value(-40.0),
+            "base + value * multiplier"
+        );
+        // Nav2's default: off by default, on above 50 (strictly: 50 itself stays off).
+        let state = |x| binary_state(under(x), 50.0, false);
+        assert_eq!(state(1.2), Some(false));
+        assert_eq!(state(1.7), Some(true));
+        assert_eq!(state(2.7), Some(false), "50 is not above 50");
+        assert_eq!(state(2.2), None, "unknown: the state stays");
+        assert_eq!(state(0.5), Some(false), "off the mask: the default");
+        // On by default: the zone switches it off, and off the mask it is on again.
+        assert_eq!(binary_state(under(1.7), 50.0, true), Some(false));
+        assert_eq!(binary_state(under(3.5), 50.0, true), Some(true));
     }
 }

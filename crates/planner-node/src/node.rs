@@ -17,6 +17,8 @@
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
 //! | in | `keepout_filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set; then the mask topic it names, as above) |
 //! | in | `speed_filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set, with `follow_plan`; then the mask topic it names) |
+//! | in | `binary_filter.filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set; then the mask topic it names) |
+//! | out | `binary_filter.binary_state_topic` (`binary_state`) | std_msgs/Bool | reliable, transient local, depth 1 (only with `binary_filter.filter_info_topic`) |
 //! | out | `/map` | nav_msgs/OccupancyGrid | reliable, transient local (only with `map_yaml`) |
 //! | out | `/plan` | nav_msgs/Path | reliable, transient local, depth 1 |
 //! | out | `/diagnostics` | diagnostic_msgs/DiagnosticArray | reliable, volatile, depth 10 |
@@ -60,7 +62,7 @@ use patrol_msgs::nav2_msgs::{
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::rosgraph_msgs::Clock;
-use patrol_msgs::std_msgs::Empty;
+use patrol_msgs::std_msgs::{Bool, Empty};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::params::ParamError;
@@ -427,9 +429,23 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // Or Nav2's costmap_filter_info_server names the mask topic, latched (costmap_filters.rs);
     // so it does for the speed zones the follower drives under.
     let mut filter_info_subs = Vec::new();
+    let binary = &params.binary_filter;
+    let no_topic = String::new();
+    let binary_info_topic = if binary.runs() {
+        &binary.filter_info_topic
+    } else {
+        if !binary.filter_info_topic.is_empty() {
+            info!(
+                "binary_filter.filter_info_topic `{}` not read: binary_filter.enabled is false",
+                binary.filter_info_topic
+            );
+        }
+        &no_topic
+    };
     for (filter, info_topic) in [
         (Filter::Keepout, &params.keepout_filter_info_topic),
         (Filter::Speed, &params.speed_filter_info_topic),
+        (Filter::Binary, binary_info_topic),
     ] {
         if info_topic.is_empty() {
             continue;
@@ -472,6 +488,15 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         Some(node.create_publisher::<OccupancyGrid>(&t, Some(latched.clone()))?)
     } else {
         None
+    };
+    // Nav2's BinaryFilter's state, latched: a node started later reads the state in force.
+    let mut binary_state_pub = if binary_info_topic.is_empty() {
+        None
+    } else {
+        let name = &params.binary_filter.binary_state_topic;
+        let t = topic(&mut node, name, "std_msgs", "Bool", &latched)?;
+        let publisher = node.create_publisher::<Bool>(&t, Some(latched.clone()))?;
+        Some((publisher, naming.name(name)?.to_string()))
     };
     let pareto_qos = ros_edge::reliable(1, Durability::Volatile);
     let pareto_topic = topic(
@@ -826,8 +851,20 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // as they come.
     let node = Arc::new(std::sync::Mutex::new(node));
     for (filter, info_topic, sub) in filter_info_subs {
-        if filter == Filter::Speed {
-            tasks.spawn(costmap_filters::limit_speed_in_zones(shared.clone()));
+        match filter {
+            Filter::Speed => {
+                tasks.spawn(costmap_filters::limit_speed_in_zones(shared.clone()));
+            }
+            Filter::Binary => {
+                if let Some((publisher, name)) = binary_state_pub.take() {
+                    tasks.spawn(costmap_filters::switch_in_zones(
+                        shared.clone(),
+                        publisher,
+                        name,
+                    ));
+                }
+            }
+            Filter::Keepout => {}
         }
         tasks.spawn(costmap_filters::receive_filter_info(
             shared.clone(),

@@ -222,7 +222,10 @@ pub struct Shared {
     pub speed_limit: RwLock<Option<f64>>,
     /// The speed zones (`speed_filter_info_topic`; Nav2's speed filter): how the mask reads, and
     /// the mask as last received.
-    pub speed_zones: RwLock<crate::costmap_filters::SpeedZones>,
+    pub speed_zones: RwLock<crate::costmap_filters::Zones>,
+    /// The binary zones (`binary_filter`; Nav2's binary filter): how the mask reads, and the
+    /// mask as last received.
+    pub binary_zones: RwLock<crate::costmap_filters::Zones>,
     /// The lifecycle state: only an active node plans and drives.
     pub lifecycle: RwLock<crate::lifecycle::State>,
     /// The navigation going on, if any (see [`Shared::start_navigating`]).
@@ -300,6 +303,7 @@ impl Shared {
             teleop_preempts: AtomicU64::new(0),
             speed_limit: RwLock::new(None),
             speed_zones: RwLock::default(),
+            binary_zones: RwLock::default(),
             navigator: Mutex::new(None),
         }
     }
