@@ -42,7 +42,7 @@ use ros2_client::{
     qos::{Durability, History},
     MessageTypeName, NodeName, NodeOptions, QosProfile, Subscription,
 };
-use ros_edge::command_line::{CommandLine, ParameterSource};
+use ros_edge::command_line::CommandLine;
 use ros_edge::naming::Naming;
 use ros_edge::parameter_values::{flatten, read_only_answer};
 use serde::{Deserialize, Serialize};
@@ -124,10 +124,7 @@ const TF: &str = "/tf";
 fn parameters(line: &CommandLine, default: &Path) -> Result<(Params, Vec<String>)> {
     let sources = line.parameter_sources(default);
     for source in &sources {
-        match source {
-            ParameterSource::File(f) => info!("parameters from {}", f.display()),
-            ParameterSource::Override(rule) => info!("parameter {}", rule.given),
-        }
+        info!("{source}");
     }
     let full = line.naming.node_path();
     // The node's fully qualified name, its plain name, rclcpp's wildcard, and the bundled

@@ -31,7 +31,7 @@ mod planning;
 mod result;
 mod state;
 
-use planner_io::parameters::{load_parameters_for, ParameterFile, ParameterSource};
+use planner_io::parameters::{load_parameters_for, ParameterFile};
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -61,10 +61,7 @@ fn main() -> ExitCode {
         match load_parameters_for(&sources, &names) {
             Ok(p) => {
                 for source in &sources {
-                    match source {
-                        ParameterSource::File(f) => log::info!("parameters from {}", f.display()),
-                        ParameterSource::Override(rule) => log::info!("parameter {}", rule.given),
-                    }
+                    log::info!("{source}");
                 }
                 for w in &p.warnings {
                     log::warn!("{w}");

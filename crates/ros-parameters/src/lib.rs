@@ -135,6 +135,17 @@ pub enum ParameterSource {
     Override(ParameterOverride),
 }
 
+/// As a binary's log names each source at start: `parameters from config/planner.yaml`,
+/// `parameter -p swarm.safety_weight:=0.5`.
+impl std::fmt::Display for ParameterSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ParameterSource::File(path) => write!(f, "parameters from {}", path.display()),
+            ParameterSource::Override(rule) => write!(f, "parameter {}", rule.given),
+        }
+    }
+}
+
 /// A ROS 2 parameter file as a YAML document, read once for every block looked up in it
 /// ([`node_block`]).
 pub fn read_document(path: &Path) -> Result<Value, ParameterError> {
@@ -779,6 +790,17 @@ mod tests {
 
     /// A namespaced node's block is found under its fully qualified name, as one key or nested
     /// by namespace, before its plain name.
+    #[test]
+    fn a_source_names_itself_as_the_log_says_it() {
+        let file = ParameterSource::File(PathBuf::from("config/chassis.yaml"));
+        assert_eq!(file.to_string(), "parameters from config/chassis.yaml");
+        let rule = ParameterOverride::parse("-p", "chassis_bridge:cmd_timeout:=0.25").unwrap();
+        assert_eq!(
+            ParameterSource::Override(rule).to_string(),
+            "parameter -p chassis_bridge:cmd_timeout:=0.25"
+        );
+    }
+
     #[test]
     fn a_namespaced_block_is_found_either_way() {
         for text in [
