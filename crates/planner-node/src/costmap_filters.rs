@@ -554,6 +554,21 @@ mod tests {
     use planner_core::geometry::Pose2;
     use planner_core::grid::MapInfo;
 
+    /// A 4 x 1 mask of 0.5 m cells from x = 1 m to 3 m, along y 0 to 0.5 m.
+    fn strip_mask(values: [i8; 4]) -> GridMap {
+        let info = MapInfo {
+            resolution: 0.5,
+            width: 4,
+            height: 1,
+            origin: Pose2 {
+                x: 1.0,
+                y: 0.0,
+                yaw: 0.0,
+            },
+        };
+        GridMap::new(info, values.to_vec()).unwrap()
+    }
+
     fn info(r#type: u8, topic: &str, base: f32, multiplier: f32) -> CostmapFilterInfo {
         CostmapFilterInfo {
             r#type,
@@ -700,21 +715,8 @@ mod tests {
 
     #[test]
     fn the_speed_limit_is_the_masks_cell_under_the_robot() {
-        // A 4 x 1 mask of 0.5 m cells from x = 1: free, 50, unknown, 20.
-        let mask = GridMap::new(
-            MapInfo {
-                resolution: 0.5,
-                width: 4,
-                height: 1,
-                origin: Pose2 {
-                    x: 1.0,
-                    y: 0.0,
-                    yaw: 0.0,
-                },
-            },
-            vec![0, 50, -1, 20],
-        )
-        .unwrap();
+        // Free, 50, unknown, 20.
+        let mask = strip_mask([0, 50, -1, 20]);
         let percent = SpeedConversion {
             percentage: true,
             base: 0.0,
@@ -731,21 +733,8 @@ mod tests {
 
     #[test]
     fn the_binary_state_flips_above_the_threshold_as_nav2s_binary_filter() {
-        // A 4 x 1 mask of 0.5 m cells from x = 1: free, 100, unknown, 50.
-        let mask = GridMap::new(
-            MapInfo {
-                resolution: 0.5,
-                width: 4,
-                height: 1,
-                origin: Pose2 {
-                    x: 1.0,
-                    y: 0.0,
-                    yaw: 0.0,
-                },
-            },
-            vec![0, 100, -1, 50],
-        )
-        .unwrap();
+        // Free, 100, unknown, 50.
+        let mask = strip_mask([0, 100, -1, 50]);
         let under = |x| filter_value_at(&mask, 0.0, 1.0, Point2::new(x, 0.25));
         assert_eq!(under(1.2), UnderRobot::Value(0.0));
         assert_eq!(under(1.7), UnderRobot::Value(100.0));
