@@ -121,8 +121,8 @@ pub struct NodeParams {
     /// drives under (0 no limit), as if sent on `speed_limit_topic`. Only with `follow_plan`.
     /// Empty (default): none.
     pub speed_filter_info_topic: String,
-    /// Nav2's BinaryFilter: zones where the robot's being switches something (a camera off in
-    /// a sensitive room, lights on indoors), published as a std_msgs/Bool. Off by default.
+    /// Nav2's BinaryFilter: zones where the robot's presence switches something (a camera off
+    /// in a sensitive room, lights on indoors), published as a std_msgs/Bool. Off by default.
     pub binary_filter: BinaryFilterParams,
     /// Stamp with the simulation's time, the latest rosgraph_msgs/Clock on `/clock`, as every
     /// node of a simulated Nav2 stack does (its launch files set it on them all); zero until

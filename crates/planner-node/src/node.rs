@@ -427,7 +427,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         Some(node.create_subscription::<OccupancyGrid>(&t, Some(latched.clone()))?)
     };
     // Or Nav2's costmap_filter_info_server names the mask topic, latched (costmap_filters.rs);
-    // so it does for the speed zones the follower drives under.
+    // so it does for the speed zones the follower drives under and for the binary zones.
     let mut filter_info_subs = Vec::new();
     let binary = &params.binary_filter;
     let no_topic = String::new();
