@@ -333,22 +333,44 @@ pub async fn receive_filter_info(
     }
 }
 
+/// The robot's pose (latest `/odom`, in the global frame) at each tick of the control rate
+/// that has fresh odometry: where the speed and binary filters read their masks, as Nav2's
+/// filters read theirs at the costmap's robot pose. A tick without fresh odometry is passed
+/// over (the filter's state stays), and so are ticks missed while the task was late.
+struct RobotPoses {
+    ticker: tokio::time::Interval,
+}
+
+impl RobotPoses {
+    fn new(s: &Shared) -> Self {
+        let mut ticker =
+            tokio::time::interval(Duration::from_secs_f64(1.0 / s.params.control_rate_hz));
+        ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        Self { ticker }
+    }
+
+    async fn next(&mut self, s: &Shared) -> planner_core::geometry::Pose2 {
+        loop {
+            self.ticker.tick().await;
+            if let Some(pose) = s.fresh_odom() {
+                return pose;
+            }
+        }
+    }
+}
+
 /// The speed filter at work, as Nav2's SpeedFilter runs in its costmap's update: at the
 /// follower's rate, the speed mask's cell under the robot (latest `/odom`) is read as a limit;
 /// when the limit read changes it is put in force as a SpeedLimit on `speed_limit_topic`
 /// would be, so the latest of the two wins, as in controller_server. Off the mask, on an
 /// unknown cell or without fresh odometry, the limit in force stays.
 pub async fn limit_speed_in_zones(s: Arc<Shared>) {
-    let mut ticker = tokio::time::interval(Duration::from_secs_f64(1.0 / s.params.control_rate_hz));
-    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut poses = RobotPoses::new(&s);
     // The limit this filter last put in force; at first none, as Nav2's SpeedFilter starts
     // (so a robot starting off every zone leaves a limit sent on `speed_limit_topic` alone).
     let mut last: Option<f64> = None;
     loop {
-        ticker.tick().await;
-        let Some(pose) = s.fresh_odom() else {
-            continue;
-        };
+        let pose = poses.next(&s).await;
         let read = {
             let zones = s.speed_zones.read().expect("lock");
             let (Some(Reading::Speed(conversion)), Some(mask)) =
@@ -395,13 +417,9 @@ pub async fn switch_in_zones(s: Arc<Shared>, state_pub: Publisher<Bool>, topic: 
         "binary filter: its state on {topic}, {} at start",
         on_off(state)
     );
-    let mut ticker = tokio::time::interval(Duration::from_secs_f64(1.0 / s.params.control_rate_hz));
-    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut poses = RobotPoses::new(&s);
     loop {
-        ticker.tick().await;
-        let Some(pose) = s.fresh_odom() else {
-            continue;
-        };
+        let pose = poses.next(&s).await;
         let read = {
             let zones = s.binary_zones.read().expect("lock");
             let (Some(Reading::Binary { base, multiplier }), Some(mask)) =

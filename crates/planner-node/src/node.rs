@@ -430,21 +430,20 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // so it does for the speed zones the follower drives under and for the binary zones.
     let mut filter_info_subs = Vec::new();
     let binary = &params.binary_filter;
-    let no_topic = String::new();
+    if !binary.enabled && !binary.filter_info_topic.is_empty() {
+        info!(
+            "binary_filter.filter_info_topic `{}` not read: binary_filter.enabled is false",
+            binary.filter_info_topic
+        );
+    }
     let binary_info_topic = if binary.runs() {
-        &binary.filter_info_topic
+        binary.filter_info_topic.as_str()
     } else {
-        if !binary.filter_info_topic.is_empty() {
-            info!(
-                "binary_filter.filter_info_topic `{}` not read: binary_filter.enabled is false",
-                binary.filter_info_topic
-            );
-        }
-        &no_topic
+        ""
     };
     for (filter, info_topic) in [
-        (Filter::Keepout, &params.keepout_filter_info_topic),
-        (Filter::Speed, &params.speed_filter_info_topic),
+        (Filter::Keepout, params.keepout_filter_info_topic.as_str()),
+        (Filter::Speed, params.speed_filter_info_topic.as_str()),
         (Filter::Binary, binary_info_topic),
     ] {
         if info_topic.is_empty() {
@@ -462,7 +461,7 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             &latched,
         )?;
         let sub = node.create_subscription::<CostmapFilterInfo>(&t, Some(latched.clone()))?;
-        filter_info_subs.push((filter, info_topic.clone(), sub));
+        filter_info_subs.push((filter, info_topic.to_owned(), sub));
     }
     let plan_topic = topic(&mut node, "plan", "nav_msgs", "Path", &latched)?;
     let plan_pub = Arc::new(node.create_publisher::<Path>(&plan_topic, Some(latched.clone()))?);
@@ -490,13 +489,13 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         None
     };
     // Nav2's BinaryFilter's state, latched: a node started later reads the state in force.
-    let mut binary_state_pub = if binary_info_topic.is_empty() {
-        None
-    } else {
-        let name = &params.binary_filter.binary_state_topic;
+    let mut binary_state_pub = if binary.runs() {
+        let name = &binary.binary_state_topic;
         let t = topic(&mut node, name, "std_msgs", "Bool", &latched)?;
         let publisher = node.create_publisher::<Bool>(&t, Some(latched.clone()))?;
         Some((publisher, naming.name(name)?.to_string()))
+    } else {
+        None
     };
     let pareto_qos = ros_edge::reliable(1, Durability::Volatile);
     let pareto_topic = topic(

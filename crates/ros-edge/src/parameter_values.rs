@@ -51,11 +51,12 @@ pub fn read_only_answer(
     who: &str,
 ) -> Option<Result<(), String>> {
     let (_, v) = held.iter().find(|(n, _)| n == name)?;
-    Some(match same(v, value) {
-        true => Ok(()),
-        false => Err(format!(
+    Some(if same(v, value) {
+        Ok(())
+    } else {
+        Err(format!(
             "`{name}` is read at start only: set it in the parameter file or with -p and restart {who}"
-        )),
+        ))
     })
 }
 
