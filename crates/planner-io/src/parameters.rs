@@ -75,6 +75,11 @@ pub struct NodeParams {
     pub control_rate_hz: f64,
     /// The follower stops when `/odom` is older than this (s).
     pub pose_timeout: f64,
+    /// costmap_2d's `transform_tolerance` (s), which planner_server transforms goals with: how
+    /// long a goal, start or path stamped in a frame of the TF tree waits for the transforms at
+    /// its stamp (or for its frame to appear on `/tf`) before it fails with TF_ERROR. At most
+    /// 10 s.
+    pub transform_tolerance: f64,
     /// Configure and activate itself at start (lifecycle), as without a lifecycle manager. Set
     /// false when Nav2's lifecycle_manager manages the node: it then starts unconfigured and
     /// plans only once activated.
@@ -353,6 +358,7 @@ impl Default for NodeParams {
             robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
             pose_timeout: 0.5,
+            transform_tolerance: 0.3,
             autostart: true,
             use_final_approach_orientation: false,
             expected_planner_frequency: 1.0,
@@ -386,6 +392,12 @@ impl NodeParams {
             return Err(
                 "control_rate_hz (at most 200) and pose_timeout must be finite and positive".into(),
             );
+        }
+        if !(0.0..=10.0).contains(&self.transform_tolerance) {
+            return Err(format!(
+                "transform_tolerance must be from 0 to 10 s, not {}",
+                self.transform_tolerance
+            ));
         }
         self.follower.validate()?;
         let non_negative = |v: f64| v.is_finite() && v >= 0.0;
@@ -1380,6 +1392,16 @@ mod tests {
                 "binary_typo.yaml",
                 "    binary_filter: {filter_info_topc: /i}\n",
                 "filter_info_topc",
+            ),
+            (
+                "tolerance_nan.yaml",
+                "    transform_tolerance: .nan\n",
+                "transform_tolerance must be from 0 to 10 s",
+            ),
+            (
+                "tolerance_long.yaml",
+                "    transform_tolerance: 60.0\n",
+                "transform_tolerance must be from 0 to 10 s, not 60",
             ),
         ] {
             assert_refused(name, block, key);

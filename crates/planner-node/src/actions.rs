@@ -151,13 +151,13 @@ async fn run_goal<G: PlannerGoal>(
     // `base_link` is relative to where the robot is now, not where it will be after a leg.
     let mut targets = Vec::with_capacity(goal.poses().len());
     for pose in goal.poses() {
-        match s.pose_in_global(pose) {
+        match s.pose_in_global(pose).await {
             Ok(p) => targets.push(p),
             Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
         }
     }
     let from = if goal.use_start() {
-        match s.pose_in_global(goal.start()) {
+        match s.pose_in_global(goal.start()).await {
             Ok(p) => p,
             Err(f) => return failed(nav2_code(f.code, G::CODE_BASE), f.message),
         }

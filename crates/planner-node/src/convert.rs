@@ -3,6 +3,7 @@
 //! the Nav2 result code names that `/diagnostics` reports.
 
 use crate::result::{Failure, ResultCode};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3 as Vector3n};
 use patrol_msgs::builtin_interfaces::{Duration, Time};
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Twist, Vector3};
@@ -70,6 +71,33 @@ pub fn pose2(p: &Pose) -> Result<Pose2, Failure> {
         ));
     }
     Ok(Pose2::new(x, y, yaw_from_quaternion(&p.orientation)?))
+}
+
+/// A pose in three dimensions (a pose in a camera's or another tilted frame is carried through
+/// its frame's rotation whole before it is laid on the plane), refusing what [`pose2`] refuses.
+pub fn pose3(p: &Pose) -> Result<Isometry3<f64>, Failure> {
+    pose2(p)?;
+    let q = &p.orientation;
+    Ok(Isometry3::from_parts(
+        Translation3::new(p.position.x, p.position.y, p.position.z),
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q.w, q.x, q.y, q.z)),
+    ))
+}
+
+/// A planar pose as a transform in three dimensions (about z, at height 0).
+pub fn iso3(p: Pose2) -> Isometry3<f64> {
+    Isometry3::new(Vector3n::new(p.x, p.y, 0.0), Vector3n::z() * p.yaw)
+}
+
+/// A transform laid on the plane: its position's x and y, its heading (rotation about z).
+pub fn planar(t: &Isometry3<f64>) -> Pose2 {
+    let q = t.rotation.quaternion();
+    let (x, y, z, w) = (q.i, q.j, q.k, q.w);
+    Pose2::new(
+        t.translation.x,
+        t.translation.y,
+        (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)),
+    )
 }
 
 /// A transform's planar part (translation and heading), refusing NaN and infinities.

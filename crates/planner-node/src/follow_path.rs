@@ -24,7 +24,6 @@
 use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::actions::{invalid_poses, MAX_GIVEN_PATH_POSES as MAX_POSES};
 use crate::drive::{action_end, watch_followed, Progress};
-use crate::localization::compose;
 use crate::outputs::Outputs;
 use crate::state::{Handover, Shared};
 use log::{info, warn};
@@ -65,7 +64,7 @@ fn result(error_code: u16, error_msg: String) -> FollowPathResult {
 
 /// A given path's poses in the global frame, or why they cannot be driven (a FollowPath code
 /// and the reason).
-fn poses_in_global(s: &Shared, goal: &FollowPathGoal) -> Result<Vec<Pose2>, (u16, String)> {
+async fn poses_in_global(s: &Shared, goal: &FollowPathGoal) -> Result<Vec<Pose2>, (u16, String)> {
     let poses = &goal.path.poses;
     if poses.is_empty() {
         return Err((INVALID_PATH, "the path is empty".into()));
@@ -76,16 +75,19 @@ fn poses_in_global(s: &Shared, goal: &FollowPathGoal) -> Result<Vec<Pose2>, (u16
             format!("{} poses, at most {MAX_POSES}", poses.len()),
         ));
     }
-    // The path's frame is the header's, as controller_server reads it: placed once.
+    // The path's frame and stamp are the header's, as controller_server reads them: placed
+    // once.
+    let header = &goal.path.header;
     let origin = s
-        .frame_in_global(&goal.path.header.frame_id)
+        .frame_in_global(&header.frame_id, crate::convert::seconds(&header.stamp))
+        .await
         .map_err(|f| (TF_ERROR, format!("the path's frame: {}", f.message)))?;
     poses
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            crate::convert::pose2(&p.pose)
-                .map(|pose| compose(origin, pose))
+            crate::convert::pose3(&p.pose)
+                .map(|pose| crate::convert::planar(&(origin * pose)))
                 .map_err(|f| (INVALID_PATH, format!("pose {i}: {}", f.message)))
         })
         .collect()
@@ -124,7 +126,7 @@ async fn follow_path(
     if let Some(f) = s.refusal() {
         return failed(UNKNOWN, f.message);
     }
-    let poses = match poses_in_global(&s, &goal) {
+    let poses = match poses_in_global(&s, &goal).await {
         Ok(poses) => poses,
         Err((code, why)) => return failed(code, why),
     };

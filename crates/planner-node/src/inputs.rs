@@ -9,6 +9,7 @@ use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{path_length, GoalRequest, GoalSlot, MapState, Shared};
+use crate::tf_buffer::Stamped;
 use chassis::Twist2;
 use log::{error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
@@ -362,17 +363,44 @@ pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
     }
 }
 
-/// `/tf` or `/tf_static` (`name`): a `global_frame -> odom_frame` transform (AMCL, slam_toolbox,
-/// cartographer, a static publisher) becomes the node's `map -> odom`, as a TF lookup would make
-/// it; the other transforms on the topic (the chassis' `odom -> base_link`, ...) are not its
-/// business. Only spawned with `track_map_to_odom`.
+/// `/tf` or `/tf_static` (`name`): every transform goes into the node's TF buffer
+/// (tf_buffer.rs), the frames goals may be stamped in; a `global_frame -> odom_frame` one (AMCL,
+/// slam_toolbox, cartographer, a static publisher) also becomes the node's `map -> odom`, as a
+/// TF lookup would make it, with `track_map_to_odom`. A refused transform is logged once per
+/// child frame, not at the publisher's rate.
 pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscription<TFMessage>) {
     let (parent, child) = (s.params.global_frame.as_str(), s.params.odom_frame.as_str());
+    let is_static = name.ends_with("_static");
     let mut announced = false;
+    let mut refused = std::collections::HashSet::new();
     loop {
         let Ok((msg, _)) = sub.async_take().await else {
             continue;
         };
+        {
+            let mut tf = s.tf.lock().expect("lock");
+            for t in &msg.transforms {
+                let (r, v) = (&t.transform.rotation, &t.transform.translation);
+                let stamped = Stamped {
+                    parent: convert::frame_name(&t.header.frame_id),
+                    child: convert::frame_name(&t.child_frame_id),
+                    stamp: convert::seconds(&t.header.stamp),
+                    translation: [v.x, v.y, v.z],
+                    rotation: [r.x, r.y, r.z, r.w],
+                };
+                if let Err(e) = tf.insert(&stamped, is_static) {
+                    // Bounded as the buffer is: one line per frame, for at most as many frames.
+                    if refused.len() < crate::tf_buffer::MAX_FRAMES
+                        && refused.insert(stamped.child.to_owned())
+                    {
+                        warn!("{name}: {e}");
+                    }
+                }
+            }
+        }
+        if !s.params.track_map_to_odom {
+            continue;
+        }
         let ours = msg.transforms.iter().filter(|t| {
             convert::frame_name(&t.header.frame_id) == parent
                 && convert::frame_name(&t.child_frame_id) == child
@@ -412,7 +440,7 @@ pub async fn receive_goals(
         };
         // bt_navigator hands a /goal_pose to its navigate_to_pose navigator: it preempts a
         // navigate_to_pose goal and is refused while navigate_through_poses drives.
-        let owner = s.pose_in_global(&msg).and_then(|goal| {
+        let owner = s.pose_in_global(&msg).await.and_then(|goal| {
             let owner = s.take_robot_as(NavigateToPoseGoal::NAME).map_err(|other| {
                 Failure::new(
                     ResultCode::Busy,

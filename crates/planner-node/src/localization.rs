@@ -99,17 +99,13 @@ impl Localization {
     }
 }
 
-/// `a` then `b`: the pose `b`, given in the frame whose pose is `a`, in `a`'s parent frame.
-pub fn compose(a: Pose2, b: Pose2) -> Pose2 {
-    pose(&(iso(a) * iso(b)))
-}
-
-/// The frames a goal or start may be stamped in, and the node's own transform of each to the
-/// global frame. Without a TF library the node knows exactly two, the two it keeps anyway:
-/// `global -> odom` (its `map -> odom` estimate above) and `global -> robot_base_frame` (the
-/// robot's current pose). Those cover what a Nav2 user sends: RViz's "2D Goal Pose" in its fixed
-/// frame (`map`, or `odom` when there is no map localization), and a script's "two metres ahead"
-/// in `base_link`. As planner_server's `transformPoseToGlobalFrame` with the latest transform.
+/// The frames the node keeps a transform to the global frame of itself, the two it keeps
+/// anyway: `global -> odom` (its `map -> odom` estimate above) and `global -> robot_base_frame`
+/// (the robot's current pose). Those cover most of what a Nav2 user sends: RViz's "2D Goal
+/// Pose" in its fixed frame (`map`, or `odom` when there is no map localization), and a
+/// script's "two metres ahead" in `base_link`. A pose in any other frame reaches one of these
+/// through the TF tree (tf_buffer.rs); the node's own transform carries it the rest of the way,
+/// so that a goal ahead of the robot and the start of its plan agree on where the robot is.
 pub struct KnownFrames<'a> {
     pub global: &'a str,
     pub odom: &'a str,
@@ -120,8 +116,17 @@ pub struct KnownFrames<'a> {
 }
 
 impl KnownFrames<'_> {
-    /// The pose of `frame` in the global frame, or why the node has none. An empty frame is the
-    /// global frame, as Nav2 reads it.
+    /// Whether `frame` is one of these (an empty frame is the global frame, as Nav2 reads it).
+    pub fn knows(&self, frame: &str) -> bool {
+        frame.is_empty() || [self.global, self.odom, self.base].contains(&frame)
+    }
+
+    /// Their names, for an error that says none was reached.
+    pub fn names(&self) -> String {
+        format!("`{}`, `{}` or `{}`", self.global, self.odom, self.base)
+    }
+
+    /// The pose of `frame`, one of these, in the global frame, or why the node has none yet.
     pub fn in_global(&self, frame: &str) -> Result<Pose2, String> {
         if frame.is_empty() || frame == self.global {
             Ok(Pose2::new(0.0, 0.0, 0.0))
@@ -137,9 +142,8 @@ impl KnownFrames<'_> {
             })
         } else {
             Err(format!(
-                "pose is in frame `{frame}`; this node plans in `{}` and has transforms only from \
-                 `{}` and `{}`",
-                self.global, self.odom, self.base
+                "frame `{frame}` is none of {}, which the node keeps itself",
+                self.names()
             ))
         }
     }
@@ -149,6 +153,11 @@ impl KnownFrames<'_> {
 mod tests {
     use super::*;
     use std::f64::consts::FRAC_PI_2;
+
+    /// `a` then `b`: the pose `b`, given in the frame whose pose is `a`, in `a`'s parent frame.
+    fn compose(a: Pose2, b: Pose2) -> Pose2 {
+        pose(&(iso(a) * iso(b)))
+    }
 
     #[test]
     fn a_pose_in_odom_or_base_link_is_carried_into_the_map() {
@@ -167,6 +176,10 @@ mod tests {
         assert!(close(at("odom"), Pose2::new(1.0, 4.0, FRAC_PI_2)));
         // The robot faces -y: two metres ahead of it is (5, 3).
         assert!(close(at("base_link"), Pose2::new(5.0, 3.0, -FRAC_PI_2)));
+        assert!(["map", "", "odom", "base_link"]
+            .iter()
+            .all(|f| frames.knows(f)));
+        assert!(!frames.knows("camera"));
         let unknown = frames.in_global("camera").unwrap_err();
         assert!(
             unknown.contains("`camera`") && unknown.contains("`odom`"),

@@ -30,6 +30,7 @@ mod patrol;
 mod planning;
 mod result;
 mod state;
+mod tf_buffer;
 
 use planner_io::parameters::{load_parameters_for, ParameterFile};
 use std::path::Path;

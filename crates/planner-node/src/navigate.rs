@@ -163,7 +163,7 @@ async fn navigate<G: NavigateGoal>(
     // `base_link` is relative to where the robot is now.
     let mut goals = Vec::with_capacity(goal.poses().len());
     for (i, pose) in goal.poses().iter().enumerate() {
-        match s.pose_in_global(pose) {
+        match s.pose_in_global(pose).await {
             Ok(p) => goals.push(p),
             Err(f) => {
                 let which = if goal.poses().len() > 1 {

@@ -562,20 +562,18 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     } else {
         None
     };
-    // map -> odom as AMCL or a SLAM node broadcasts it, with tf2's listener QoS: /tf reliable
-    // and volatile, /tf_static reliable and transient local, both depth 100. The depth matters
-    // for /tf_static: every static broadcaster (robot_state_publisher, a static map -> odom)
-    // latches its own message, all delivered on matching, and a reader of depth 1 keeps only
-    // the last of them.
+    // The TF tree (and map -> odom as AMCL or a SLAM node broadcasts it), with tf2's listener
+    // QoS: /tf reliable and volatile, /tf_static reliable and transient local, both depth 100.
+    // The depth matters for /tf_static: every static broadcaster (robot_state_publisher, a
+    // static map -> odom) latches its own message, all delivered on matching, and a reader of
+    // depth 1 keeps only the last of them.
     let mut tf_subs = Vec::new();
-    if params.track_map_to_odom {
-        let tf_qos = ros_edge::reliable(100, Durability::Volatile);
-        let tf_static_qos = ros_edge::reliable(100, Durability::TransientLocal);
-        for (name, qos) in [("/tf", &tf_qos), ("/tf_static", &tf_static_qos)] {
-            let t = topic(&mut node, name, "tf2_msgs", "TFMessage", qos)?;
-            let sub = node.create_subscription::<TFMessage>(&t, Some(qos.clone()))?;
-            tf_subs.push((name, sub));
-        }
+    let tf_qos = ros_edge::reliable(100, Durability::Volatile);
+    let tf_static_qos = ros_edge::reliable(100, Durability::TransientLocal);
+    for (name, qos) in [("/tf", &tf_qos), ("/tf_static", &tf_static_qos)] {
+        let t = topic(&mut node, name, "tf2_msgs", "TFMessage", qos)?;
+        let sub = node.create_subscription::<TFMessage>(&t, Some(qos.clone()))?;
+        tf_subs.push((name, sub));
     }
     // Requests are answered one after another; the reader keeps up to REQUEST_QUEUE waiting
     // ones (a burst of 200 concurrent calls used to lose all but the last 10 of them, which then

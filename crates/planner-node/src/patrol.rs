@@ -127,7 +127,7 @@ async fn patrol(
     let mut result = FollowWaypointsResult::default();
     let mut poses = Vec::with_capacity(goal.poses.len());
     for (i, p) in goal.poses.iter().enumerate() {
-        match s.pose_in_global(p) {
+        match s.pose_in_global(p).await {
             Ok(pose) => poses.push(pose),
             Err(f) => {
                 result.error_code = 600;

@@ -222,7 +222,7 @@ pub async fn install_map(
 pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
     let planner = s.live.read().expect("lock").planner;
     let failed = |f: Failure| Outcome::failed(planner, 0, f);
-    let goal = match s.pose_in_global(&req.goal) {
+    let goal = match s.pose_in_global(&req.goal).await {
         Ok(g) => g,
         Err(f) => return failed(f),
     };
@@ -237,7 +237,7 @@ pub async fn answer_get_plan(s: &Arc<Shared>, req: GetPlanRequest) -> Outcome {
             }
         }
     } else {
-        match s.pose_in_global(&req.start) {
+        match s.pose_in_global(&req.start).await {
             Ok(p) => p,
             Err(f) => return failed(f),
         }

@@ -2,11 +2,13 @@
 //! current map with its planning grid, the latest poses, the goal counter and the plan being
 //! followed. Locks are held only to copy a value in or out, never across an await or a plan.
 
-use crate::localization::{compose, KnownFrames, Localization};
+use crate::localization::{KnownFrames, Localization};
 use crate::result::{Failure, ResultCode};
+use crate::tf_buffer::TfBuffer;
 use chassis::behavior::{Motion, Status as MotionStatus};
 use chassis::follower::Follower;
 use chassis::Twist2;
+use nalgebra::Isometry3;
 use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav_msgs::Path;
 use planner_core::config::PlannerConfig;
@@ -186,6 +188,9 @@ pub struct Shared {
     pub goals: AtomicU64,
     /// `map -> odom` and the recent odometry (see localization.rs).
     pub localization: Mutex<Localization>,
+    /// Every transform on `/tf` and `/tf_static`: the frames goals may be stamped in beyond the
+    /// node's own (tf_buffer.rs).
+    pub tf: Mutex<TfBuffer>,
     /// The latest `/odom` pose (map frame) and when it arrived: the follower's feedback.
     pub odom: RwLock<Option<(Pose2, Instant)>>,
     /// The same pose in the odometry frame, as it arrived (Nav2's `local_frame`): what a
@@ -273,6 +278,7 @@ impl Shared {
                 Pose2::new(x, y, yaw),
                 params.track_map_to_odom,
             )),
+            tf: Mutex::new(TfBuffer::default()),
             lifecycle: RwLock::new(if params.autostart {
                 crate::lifecycle::State::Active
             } else {
@@ -386,17 +392,46 @@ impl Shared {
             .unwrap_or_default()
     }
 
-    /// A goal or start stamped in a frame the node knows (`localization::KnownFrames`: the
-    /// global frame, `odom_frame`, `robot_base_frame`) as a pose in the global frame, through
-    /// the latest transform; TF_ERROR, with the reason, for any other frame.
-    pub fn pose_in_global(&self, msg: &PoseStamped) -> Result<Pose2, Failure> {
-        let origin = self.frame_in_global(&msg.header.frame_id)?;
-        Ok(compose(origin, crate::convert::pose2(&msg.pose)?))
+    /// A goal or start as a pose in the global frame, as planner_server transforms one: from a
+    /// frame the node keeps itself (`localization::KnownFrames`: the global frame, `odom_frame`,
+    /// `robot_base_frame`) with its latest transform, from any other frame of the TF tree
+    /// through `/tf` and `/tf_static` at the pose's stamp (tf_buffer.rs). A frame not (yet)
+    /// connected, or a stamp the transforms do not (yet) reach, is waited for up to
+    /// `transform_tolerance`, then TF_ERROR with the reason; a pose that is not finite is
+    /// INVALID_INPUT at once.
+    pub async fn pose_in_global(&self, msg: &PoseStamped) -> Result<Pose2, Failure> {
+        let pose = crate::convert::pose3(&msg.pose)?;
+        let origin = self
+            .frame_in_global(
+                &msg.header.frame_id,
+                crate::convert::seconds(&msg.header.stamp),
+            )
+            .await?;
+        Ok(crate::convert::planar(&(origin * pose)))
     }
 
-    /// Where the frame `frame_id` is in the global frame, as [`Shared::pose_in_global`] finds
-    /// it (once for many poses in one frame, a path's).
-    pub fn frame_in_global(&self, frame_id: &str) -> Result<Pose2, Failure> {
+    /// Where the frame `frame_id` is in the global frame at `stamp` (s; 0: the latest), as
+    /// [`Shared::pose_in_global`] finds it (once for many poses in one frame, a path's).
+    pub async fn frame_in_global(
+        &self,
+        frame_id: &str,
+        stamp: f64,
+    ) -> Result<Isometry3<f64>, Failure> {
+        let frame = crate::convert::frame_name(frame_id);
+        let asked = Instant::now();
+        loop {
+            match self.frame_in_global_now(frame, stamp) {
+                Ok(t) => return Ok(t),
+                Err(why) if asked.elapsed().as_secs_f64() >= self.params.transform_tolerance => {
+                    return Err(Failure::new(ResultCode::TfError, why))
+                }
+                Err(_) => tokio::time::sleep(std::time::Duration::from_millis(20)).await,
+            }
+        }
+    }
+
+    /// [`Shared::frame_in_global`] with what the node holds now.
+    fn frame_in_global_now(&self, frame: &str, stamp: f64) -> Result<Isometry3<f64>, String> {
         let frames = KnownFrames {
             global: &self.params.global_frame,
             odom: &self.params.odom_frame,
@@ -404,9 +439,11 @@ impl Shared {
             base: &self.params.robot_base_frame,
             robot: self.start.read().expect("lock").map(|(p, _)| p),
         };
-        frames
-            .in_global(crate::convert::frame_name(frame_id))
-            .map_err(|why| Failure::new(ResultCode::TfError, why))
+        let tf = self.tf.lock().expect("lock");
+        let (known, to_known) = tf
+            .to_known_frame(frame, stamp, |f| frames.knows(f), &frames.names())
+            .map_err(|e| e.to_string())?;
+        Ok(crate::convert::iso3(frames.in_global(known)?) * to_known)
     }
 
     /// The robot's pose (global frame) from odometry no older than `pose_timeout`: what the
