@@ -2,9 +2,10 @@
 # Builds tests/interfaces/nav2_msgs (the ROS 2 Jazzy nav2_msgs interfaces the rclpy tests use:
 # ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp,
 # DriveOnHeading, Wait, AssistedTeleop, FollowPath, IsPathValid, GetCostmap, LoadMap, the four costmap clearing services, SpeedLimit, CostmapFilterInfo) and
-# tests/interfaces/map_msgs (OccupancyGridUpdate, costmap_2d's partial updates) and installs them
-# into the test venv, so that `from nav2_msgs.action import ComputePathToPose` works there and
-# rclpy can create action and service clients and servers for them. Neither has a wheel on PyPI,
+# tests/interfaces/map_msgs (OccupancyGridUpdate, costmap_2d's partial updates) and
+# tests/interfaces/tf2_msgs (TFMessage, what /tf and /tf_static carry) and installs them into the
+# test venv, so that `from nav2_msgs.action import ComputePathToPose` works there and
+# rclpy can create action and service clients and servers for them. None has a wheel on PyPI,
 # so this generates them with the rosidl generators from PyPI (tests/requirements-interfaces.txt).
 #
 #   tests/build_interfaces.sh [VENV]      VENV defaults to .venv at the repository root
@@ -27,7 +28,7 @@ mkdir -p "$(dirname "$VENV")"
 VENV=$(cd "$(dirname "$VENV")" && pwd)/$(basename "$VENV")
 PY=$VENV/bin/python
 # In build order (each may use the ones before it).
-PKGS=(nav2_msgs map_msgs)
+PKGS=(nav2_msgs map_msgs tf2_msgs)
 STAMP=$VENV/share/patrol-planner-interfaces.stamp
 START=$SECONDS
 
@@ -39,8 +40,9 @@ from nav2_msgs.action import AssistedTeleop, ComputePathToPose, FollowPath, Comp
 from nav2_msgs.srv import ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid
 from nav2_msgs.msg import CostmapFilterInfo, SpeedLimit
 from map_msgs.msg import OccupancyGridUpdate
+from tf2_msgs.msg import TFMessage
 from rclpy.type_support import check_for_type_support
-for t in (AssistedTeleop, ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp, DriveOnHeading, Wait, ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid, CostmapFilterInfo, SpeedLimit, OccupancyGridUpdate):
+for t in (AssistedTeleop, ComputePathToPose, ComputePathThroughPoses, FollowWaypoints, NavigateToPose, Spin, BackUp, DriveOnHeading, Wait, ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid, CostmapFilterInfo, SpeedLimit, OccupancyGridUpdate, TFMessage):
     check_for_type_support(t)
 ' "$@"
 }

@@ -244,6 +244,76 @@ def test_goals_in_odom_and_base_link_are_carried_into_the_map(ros):
         ros.node.destroy_publisher(odom_pub)
 
 
+def test_goals_in_frames_of_the_tf_tree_are_placed_through_it(ros):
+    """Goals stamped in frames the node knows only from /tf and /tf_static, as planner_server
+    transforms them with tf2: a camera's optical frame two static steps under base_link (z ahead,
+    x right, y down, as robot_state_publisher gives it; not named camera_link, which other
+    tests on this node expect to be unknown), a docking frame fixed in the map, and a
+    frame that moves on /tf, taken at the goal's stamp (interpolated between the transforms
+    around it) or at the latest for stamp 0. A stamp the transforms do not reach, and a frame
+    nothing publishes, are TF_ERROR once transform_tolerance has passed. The robot is at
+    world(1, 1) facing +x (use_test_map); each goal below is world(11.5, 7) in its frame."""
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+
+    use_test_map(ros)
+    latched = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    static_pub = ros.node.create_publisher(TFMessage, "/tf_static", latched)
+    tf_pub = ros.node.create_publisher(TFMessage, "/tf", QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
+    target = world(11.5, 7.0)
+
+    def transform(parent, child, xyz, q=(0.0, 0.0, 0.0, 1.0), stamp=0.0):
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = parent, child
+        t.header.stamp.sec, t.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
+        (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z) = xyz
+        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w) = q
+        return t
+
+    def plan_in(frame, x, y, z=0.0, stamp=0.0):
+        goal = stamped(x, y, frame=frame)
+        goal.pose.position.z = float(z)
+        goal.header.stamp.sec, goal.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
+        req = GetPlan.Request(goal=goal, tolerance=0.0)
+        req.start.header.frame_id = ""  # from the robot's pose
+        return call_service(ros, GetPlan, MAKE_PLAN, req).plan
+
+    def ends_at_target(plan):
+        if not plan.poses:
+            return False
+        last = plan.poses[-1].pose.position
+        return math.hypot(last.x - target[0], last.y - target[1]) < 1e-6
+
+    dock_yaw = math.pi / 2
+    try:
+        ros.wait_matched(static_pub, "/tf_static")
+        ros.wait_matched(tf_pub, "/tf")
+        static_pub.publish(TFMessage(transforms=[
+            transform("base_link", "mast_camera", (0.2, 0.0, 0.5)),
+            transform("mast_camera", "mast_camera_optical", (0.0, 0.0, 0.0), (-0.5, 0.5, -0.5, 0.5)),
+            transform("map", "dock", (*world(11.5, 6.0), 0.0), (0.0, 0.0, math.sin(dock_yaw / 2), math.cos(dock_yaw / 2))),
+        ]))
+        # The dock faces +y: one metre ahead of it is the target.
+        ros.spin_until(lambda: ends_at_target(plan_in("dock", 1.0, 0.0)), 20, "a goal in `dock` planned to its place")
+        # 10.3 m along the optical axis, 6 m to its left (optical -x), at the floor (0.5 m below
+        # the camera, optical +y): 10.5 m ahead of the robot and 6 m to its left.
+        assert ends_at_target(plan_in("mast_camera_optical", -6.0, 0.5, z=10.3))
+        # A cart moving along +y on /tf: at 1000 s at world(11.5, 5), at 1002 s at world(11.5, 9).
+        tf_pub.publish(TFMessage(transforms=[transform("map", "cart", (*world(11.5, 5.0), 0.0), stamp=1000.0)]))
+        tf_pub.publish(TFMessage(transforms=[transform("map", "cart", (*world(11.5, 9.0), 0.0), stamp=1002.0)]))
+        ros.spin_until(lambda: ends_at_target(plan_in("cart", 0.0, 0.0, stamp=1001.0)), 20,
+                       "a goal in `cart` stamped between its transforms, planned to the interpolated place")
+        assert ends_at_target(plan_in("cart", 0.0, -2.0, stamp=0.0)), "stamp 0: the latest transform"
+        for frame, stamp, why_has in [("cart", 1003.0, "not at 1003.000 s"), ("nowhere", 0.0, "`nowhere`")]:
+            i = len(ros.diagnostics)
+            assert not plan_in(frame, 0.0, 0.0, stamp=stamp).poses
+            code, why, _ = ros.wait_code(i, "TF_ERROR")
+            assert why_has in why, why
+    finally:
+        ros.node.destroy_publisher(static_pub)
+        ros.node.destroy_publisher(tf_pub)
+
+
 def test_load_map_switches_maps_as_map_server_does(ros, tmp_path):
     """The node loads its own map (`map_yaml`), so it serves map_server's `map_server/load_map`
     (nav2_simple_commander's changeMap()): another floor's map is loaded, latched on /map,
