@@ -8,6 +8,7 @@ import time
 import pytest
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
+from tf2_msgs.msg import TFMessage
 
 from conftest import ROOT, driving_rig, stamped
 GOAL = (2.5, 0.3)  # 2.4 m from the simulated car's start at (0.1, 0.1), round no obstacle
@@ -43,6 +44,8 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
         received.append(time.time())
 
     ros.node.create_subscription(TwistStamped, "/cmd_vel", command, 100)
+    tf = []
+    ros.node.create_subscription(TFMessage, "/tf", tf.append, 100)
     # First contact between rclpy and the binaries' RustDDS: its participants announce themselves
     # every 10 s, so one lost exchange under load costs 10-20 s (a full test run timed out at 20).
     ros.spin_until(lambda: odom, 45, "/odom from the simulated chassis")
@@ -53,9 +56,9 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
         return math.hypot(p.x - GOAL[0], p.y - GOAL[1]) <= 0.15 and abs(odom[-1].twist.twist.linear.x) < 1e-3
 
     ros.spin_until(arrived, 60, "the car to reach the goal on stamped commands")
-    # The bridge also broadcasts odom -> base_link on /tf (tf2_msgs has no PyPI wheel to decode it
-    # here; its encoding is checked in msgs/tests/golden.rs): its writer is on the graph with the
-    # type. The writer comes from DDS discovery itself; its node's name comes from
+    # The bridge also broadcasts odom -> base_link on /tf: its writer is on the graph with the
+    # type, and its transforms are /odom's poses (checked below). The writer comes from DDS
+    # discovery itself; its node's name comes from
     # /ros_discovery_info, which can lag it under load (asking by node name timed out there):
     # until then rmw names it _NODE_NAME_UNKNOWN_ (participant known, node not yet) or
     # _CREATED_BY_BARE_DDS_APP_ (participant not yet known), so the name is given a few seconds to
@@ -89,6 +92,21 @@ def test_stamped_cmd_vel_drives_the_car(stamped_rig):
         stamps.append(stamp)
         assert abs(c.twist.linear.x) <= 0.6 + 1e-9 and abs(c.twist.angular.z) <= 0.4 + 1e-9
     assert all(b > a for a, b in zip(stamps, stamps[1:])), "stamps that do not increase"
+    # Each odom -> base_link on /tf is the /odom pose of the same stamp, as diff_drive_controller
+    # broadcasts it (the drive above moved the car, so the poses are not all the start's).
+    by_stamp = {(m.header.stamp.sec, m.header.stamp.nanosec): m.pose.pose for m in odom}
+    transforms = [t for m in tf for t in m.transforms]
+    matched = 0
+    for t in transforms:
+        assert (t.header.frame_id, t.child_frame_id) == ("odom", "base_link"), t
+        pose = by_stamp.get((t.header.stamp.sec, t.header.stamp.nanosec))
+        if pose is None:
+            continue  # its /odom message was not taken here (a reader falls behind under load)
+        matched += 1
+        v, q = t.transform.translation, t.transform.rotation
+        assert (v.x, v.y, v.z) == (pose.position.x, pose.position.y, pose.position.z), (t, pose)
+        assert (q.x, q.y, q.z, q.w) == (pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w)
+    assert matched > 20 and max(t.transform.translation.x for t in transforms) > 2.0, (matched, len(transforms))
 
 
 def test_the_bridge_read_every_source_and_named_what_it_passed_over(stamped_rig):
