@@ -195,6 +195,7 @@ enum DiscoveryTimerEvent {
   ParticipantCleanup,
   TopicCleanup,
   PublishParticipantMessage,
+  RepublishLocalEndpoints,
   #[cfg(feature = "security")]
   CachedSecureMessageResend,
 }
@@ -296,12 +297,20 @@ pub(crate) struct Discovery {
   // discovery phase. See `spdp_receive`.
   #[cfg(feature = "security")]
   spdp_quick_response_sent: std::collections::HashSet<GuidPrefix>,
+
+  // patrol-planner patch 9: a republish of our endpoints is scheduled
+  // (`DiscoveryTimerEvent::RepublishLocalEndpoints`), so participants
+  // discovered meanwhile need no other.
+  republish_pending: bool,
 }
 
 impl Discovery {
   const PARTICIPANT_CLEANUP_PERIOD: StdDuration = StdDuration::from_secs(2);
   const TOPIC_CLEANUP_PERIOD: StdDuration = StdDuration::from_secs(60); // timer for cleaning up inactive topics
   const SPDP_PUBLISH_PERIOD: StdDuration = StdDuration::from_secs(10);
+  // patrol-planner patch 9: how long after discovering a participant our
+  // endpoints are announced again.
+  const REPUBLISH_DELAY: StdDuration = StdDuration::from_secs(1);
   const CHECK_PARTICIPANT_MESSAGES: StdDuration = StdDuration::from_secs(1);
   #[cfg(feature = "security")]
   const CACHED_SECURE_DISCOVERY_MESSAGE_RESEND_PERIOD: StdDuration = StdDuration::from_secs(1);
@@ -693,6 +702,7 @@ impl Discovery {
       dcps_participant_volatile_message_secure,
       #[cfg(feature = "security")]
       spdp_quick_response_sent: std::collections::HashSet::new(),
+      republish_pending: false,
     })
   }
 
@@ -880,6 +890,10 @@ impl Discovery {
                     Self::TOPIC_CLEANUP_PERIOD,
                     DiscoveryTimerEvent::TopicCleanup,
                   );
+                }
+                DiscoveryTimerEvent::RepublishLocalEndpoints => {
+                  self.republish_pending = false;
+                  self.republish_local_endpoints();
                 }
                 DiscoveryTimerEvent::PublishParticipantMessage => {
                   self.publish_participant_message();
@@ -1083,6 +1097,17 @@ impl Discovery {
           StdDuration::from_millis(10),
           DiscoveryTimerEvent::SendParticipantInfo { reschedule: false },
         );
+        // patrol-planner patch 9: announce our endpoints again once the new
+        // participant has had time to take in the first announcement (see
+        // `republish_local_endpoints`). One republish serves every participant
+        // discovered before it goes out.
+        if !self.republish_pending {
+          self.republish_pending = true;
+          self.discovery_timer.borrow_mut().set_timeout(
+            Self::REPUBLISH_DELAY,
+            DiscoveryTimerEvent::RepublishLocalEndpoints,
+          );
+        }
       }
 
       // This may be a rediscovery of a previously seen participant that
@@ -1774,6 +1799,31 @@ impl Discovery {
 
   pub fn topic_cleanup(&self) {
     discovery_db_write(&self.discovery_db).topic_cleanup();
+  }
+
+  // patrol-planner patch 9. Fast DDS (ROS 2 Jazzy's rmw_fastrtps) sometimes
+  // acknowledges the SEDP samples that announce our readers and writers and
+  // never matches its endpoints with them: seen on loopback when it started
+  // within a few milliseconds of us, for the samples it took in from our repair
+  // (those we pushed before it knew us were dropped), while later samples
+  // matched. The endpoints then stay unmatched for good, as the samples are
+  // acknowledged and never sent again. Writing every local endpoint's data
+  // again, as new samples, gives it a second chance: an update of a known
+  // endpoint changes nothing for a DDS that took in the first one.
+  fn republish_local_endpoints(&self) {
+    let (readers, writers): (Vec<DiscoveredReaderData>, Vec<DiscoveredWriterData>) = {
+      let db = discovery_db_read(&self.discovery_db);
+      (
+        db.get_all_local_topic_readers().cloned().collect(),
+        db.get_all_local_topic_writers().cloned().collect(),
+      )
+    };
+    for r in &readers {
+      self.sedp_publish_single_user_reader(r);
+    }
+    for w in &writers {
+      self.sedp_publish_single_user_writer(w);
+    }
   }
 
   fn sedp_publish_single_user_reader(&self, reader_data: &DiscoveredReaderData) {
