@@ -32,8 +32,12 @@ pub fn yaw_from_quaternion(q: &Quaternion) -> Result<f64, Failure> {
             ),
         ));
     }
-    let (x, y, z, w) = (q.x / n, q.y / n, q.z / n, q.w / n);
-    Ok((2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)))
+    Ok(yaw_of_unit(q.x / n, q.y / n, q.z / n, q.w / n))
+}
+
+/// The heading (rotation about z) of the unit quaternion (x, y, z, w).
+fn yaw_of_unit(x: f64, y: f64, z: f64, w: f64) -> f64 {
+    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
 }
 
 /// Position and heading of a stamped pose in the global frame: the frame must be the global one
@@ -92,11 +96,10 @@ pub fn iso3(p: Pose2) -> Isometry3<f64> {
 /// A transform laid on the plane: its position's x and y, its heading (rotation about z).
 pub fn planar(t: &Isometry3<f64>) -> Pose2 {
     let q = t.rotation.quaternion();
-    let (x, y, z, w) = (q.i, q.j, q.k, q.w);
     Pose2::new(
         t.translation.x,
         t.translation.y,
-        (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)),
+        yaw_of_unit(q.i, q.j, q.k, q.w),
     )
 }
 

@@ -99,8 +99,8 @@ impl Localization {
     }
 }
 
-/// The frames the node keeps a transform to the global frame of itself, the two it keeps
-/// anyway: `global -> odom` (its `map -> odom` estimate above) and `global -> robot_base_frame`
+/// The frames whose transform to the global frame the node keeps itself, besides the global
+/// frame: the two it keeps anyway, `global -> odom` (its `map -> odom` estimate above) and `global -> robot_base_frame`
 /// (the robot's current pose). Those cover most of what a Nav2 user sends: RViz's "2D Goal
 /// Pose" in its fixed frame (`map`, or `odom` when there is no map localization), and a
 /// script's "two metres ahead" in `base_link`. A pose in any other frame reaches one of these
