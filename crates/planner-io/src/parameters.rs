@@ -29,7 +29,8 @@ pub struct NodeParams {
     /// for `/map`.
     pub map_yaml: String,
     /// The frame plans are made in. Goals may be in it (or have an empty frame), in `odom_frame`
-    /// or in `robot_base_frame`: the node carries those into it (`Shared::pose_in_global`).
+    /// or `robot_base_frame`, or in any frame of the TF tree: the node carries those into it
+    /// (`Shared::pose_in_global`).
     pub global_frame: String,
     /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
     /// default: odometry is the map frame, as for the simulated chassis).
