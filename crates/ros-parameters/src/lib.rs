@@ -788,8 +788,6 @@ mod tests {
         assert!(e.to_string().contains("nested deeper"), "{e}");
     }
 
-    /// A namespaced node's block is found under its fully qualified name, as one key or nested
-    /// by namespace, before its plain name.
     #[test]
     fn a_source_names_itself_as_the_log_says_it() {
         let file = ParameterSource::File(PathBuf::from("config/chassis.yaml"));
@@ -801,6 +799,8 @@ mod tests {
         );
     }
 
+    /// A namespaced node's block is found under its fully qualified name, as one key or nested
+    /// by namespace, before its plain name.
     #[test]
     fn a_namespaced_block_is_found_either_way() {
         for text in [
