@@ -32,7 +32,7 @@ pub struct NodeParams {
     /// or `robot_base_frame`, or in any frame of the TF tree: the node carries those into it
     /// (`Shared::pose_in_global`).
     pub global_frame: String,
-    /// The static map -> odom transform `[x, y, yaw]` applied to `/odom` poses (identity by
+    /// The static map -> odom transform `[x, y, yaw]` applied to odometry poses (identity by
     /// default: odometry is the map frame, as for the simulated chassis).
     pub map_to_odom: [f64; 3],
     /// Re-estimate `map -> odom` instead of keeping `map_to_odom` fixed: from each
@@ -74,7 +74,8 @@ pub struct NodeParams {
     pub robot_base_frame: String,
     /// Follower rate (Hz).
     pub control_rate_hz: f64,
-    /// The follower stops when `/odom` is older than this (s).
+    /// The follower stops when the odometry is older than this (s); `/odom` is the odometry
+    /// only while `odom_frame -> robot_base_frame` has not come on `/tf` for this long.
     pub pose_timeout: f64,
     /// costmap_2d's `transform_tolerance` (s), which planner_server transforms goals with: how
     /// long a goal, start or path stamped in a frame of the TF tree waits for the transforms at

@@ -1,5 +1,6 @@
 //! The node's inputs, one task each: maps from `/map`, start poses from `/initialpose`,
-//! `/amcl_pose` and `/odom`, `map -> odom` from `/tf` and `/tf_static`, and goals from
+//! `/amcl_pose` and the odometry (`odom -> base_link` on `/tf`, else `/odom`), the TF tree and
+//! `map -> odom` from `/tf` and `/tf_static`, and goals from
 //! `/goal_pose`. Each message is checked on arrival; a bad one is answered on `/diagnostics`
 //! (maps, goals) or logged (poses, transforms), and the task goes on.
 
@@ -8,10 +9,10 @@ use crate::navigate::NavigateGoal;
 use crate::outputs::Outputs;
 use crate::planning::install_map;
 use crate::result::{Failure, Outcome, ResultCode};
-use crate::state::{path_length, GoalRequest, GoalSlot, MapState, Shared};
+use crate::state::{path_length, GoalRequest, GoalSlot, MapState, OdometrySource, Shared};
 use crate::tf_buffer::Stamped;
 use chassis::Twist2;
-use log::{error, info, log, warn, Level};
+use log::{debug, error, info, log, warn, Level};
 use patrol_msgs::geometry_msgs::{PoseStamped, PoseWithCovarianceStamped};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{NavigateToPoseGoal, SpeedLimit};
@@ -352,11 +353,11 @@ pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
         };
         match convert::pose2(&msg.pose.pose) {
             Ok(p) => {
-                let stamp = convert::seconds(&msg.header.stamp);
-                let in_map = s.localization.lock().expect("lock").odometry(stamp, p);
-                *s.start.write().expect("lock") = Some((in_map, Instant::now()));
-                *s.odom.write().expect("lock") = Some((in_map, Instant::now()));
-                *s.odom_local.write().expect("lock") = Some(p);
+                s.odometry(
+                    OdometrySource::Topic,
+                    convert::seconds(&msg.header.stamp),
+                    p,
+                );
             }
             Err(f) => warn!("/odom ignored: {}", f.message),
         }
@@ -364,12 +365,16 @@ pub async fn receive_odometry(s: Arc<Shared>, sub: Subscription<Odometry>) {
 }
 
 /// `/tf` or `/tf_static` (`name`): every transform goes into the node's TF buffer
-/// (tf_buffer.rs), the frames goals may be stamped in; a `global_frame -> odom_frame` one (AMCL,
-/// slam_toolbox, cartographer, a static publisher) also becomes the node's `map -> odom`, as a
-/// TF lookup would make it, with `track_map_to_odom`. A refused transform is logged once per
-/// child frame, not at the publisher's rate.
+/// (tf_buffer.rs), the frames goals may be stamped in. A `global_frame -> odom_frame` one
+/// (AMCL, slam_toolbox, cartographer, a static publisher) also becomes the node's `map -> odom`,
+/// as a TF lookup would make it, with `track_map_to_odom`; one that moves `robot_base_frame`
+/// in `odom_frame` (`odom -> base_link`, or `odom -> base_footprint` under a static
+/// `base_footprint -> base_link`) is odometry, the robot's pose as Nav2 reads it
+/// ([`Shared::odometry`]). A refused transform is logged once per child frame, not at the
+/// publisher's rate.
 pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscription<TFMessage>) {
     let (parent, child) = (s.params.global_frame.as_str(), s.params.odom_frame.as_str());
+    let base = s.params.robot_base_frame.as_str();
     let is_static = name.ends_with("_static");
     let mut announced = false;
     let mut refused = std::collections::HashSet::new();
@@ -398,14 +403,14 @@ pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscri
                 }
             }
         }
-        if !s.params.track_map_to_odom {
-            continue;
-        }
         let ours = msg.transforms.iter().filter(|t| {
             convert::frame_name(&t.header.frame_id) == parent
                 && convert::frame_name(&t.child_frame_id) == child
         });
         for t in ours {
+            if !s.params.track_map_to_odom {
+                break;
+            }
             match convert::transform2(&t.transform) {
                 Ok(p) => {
                     s.localization.lock().expect("lock").set_map_to_odom(p);
@@ -423,6 +428,38 @@ pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscri
                 Err(f) => warn!("{name}: {parent} -> {child} ignored: {}", f.message),
             }
         }
+        if !is_static {
+            odometry_from_tf(&s, &msg, base, child);
+        }
+    }
+}
+
+/// The robot's pose in `odom` from the TF buffer, when `msg` moved one of the frames between
+/// `base` and `odom` (a message about other frames, a joint's or a cart's, gives no new
+/// odometry, and must not keep an odometry that stopped looking fresh). Looked up at the
+/// latest time all those frames reach, as Nav2 looks the robot's pose up at time 0.
+fn odometry_from_tf(s: &Shared, msg: &TFMessage, base: &str, odom: &str) {
+    let latest = {
+        let tf = s.tf.lock().expect("lock");
+        let Ok(path) = tf.path_up_to(base, odom) else {
+            return;
+        };
+        let moved = msg
+            .transforms
+            .iter()
+            .any(|t| path.contains(&convert::frame_name(&t.child_frame_id)));
+        if !moved {
+            return;
+        }
+        tf.latest_up_to(base, odom)
+    };
+    match latest {
+        Ok((t, Some(stamp))) => {
+            s.odometry(OdometrySource::Tf, stamp, convert::planar(&t));
+        }
+        // Every edge static: a robot that never moves is no odometry.
+        Ok((_, None)) => {}
+        Err(e) => debug!("/tf: no odometry from it: {e}"),
     }
 }
 

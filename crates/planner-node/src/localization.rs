@@ -1,8 +1,9 @@
 //! Where the robot is in the map frame, from odometry and map-frame pose estimates, the way a
 //! Nav2 stack composes them through TF: `map -> odom` (AMCL's correction) times `odom ->
-//! base_link` (the wheel odometry).
+//! base_link` (the odometry, from `/tf` or `/odom`: `Shared::odometry`).
 //!
-//! This node has no TF library, so it keeps `map -> odom` itself: the `map_to_odom` parameter at
+//! The node keeps `map -> odom` itself, not only as `/tf` last said it (tf_buffer.rs keeps
+//! that), because it also localizes from pose estimates: the `map_to_odom` parameter at
 //! first, then, with `track_map_to_odom`, re-anchored on every map-frame pose of the robot
 //! (`/amcl_pose`, or a user's `/initialpose` from RViz) so that the odometry of that moment maps
 //! onto it, exactly the transform AMCL publishes. Between estimates, odometry carries the pose

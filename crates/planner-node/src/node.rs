@@ -13,6 +13,7 @@
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
+//! | in | `/tf`, `/tf_static` | tf2_msgs/TFMessage | reliable, depth 100; `/tf_static` transient local (tf2's listener): the TF tree, `map -> odom`, and the odometry `odom -> base_link`, which wins over `/odom` |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
 //! | in | `keepout_filter_info_topic` | nav2_msgs/CostmapFilterInfo | reliable, transient local (only when set; then the mask topic it names, as above) |
@@ -562,7 +563,8 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     } else {
         None
     };
-    // The TF tree (and map -> odom as AMCL or a SLAM node broadcasts it), with tf2's listener
+    // The TF tree (map -> odom as AMCL or a SLAM node broadcasts it, odom -> base_link as the
+    // odometry does), with tf2's listener
     // QoS: /tf reliable and volatile, /tf_static reliable and transient local, both depth 100.
     // The depth matters for /tf_static: every static broadcaster (robot_state_publisher, a
     // static map -> odom) latches its own message, all delivered on matching, and a reader of

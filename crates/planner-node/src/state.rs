@@ -8,6 +8,7 @@ use crate::tf_buffer::TfBuffer;
 use chassis::behavior::{Motion, Status as MotionStatus};
 use chassis::follower::Follower;
 use chassis::Twist2;
+use log::{info, warn};
 use nalgebra::Isometry3;
 use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav_msgs::Path;
@@ -191,8 +192,11 @@ pub struct Shared {
     /// Every transform on `/tf` and `/tf_static`: the frames goals may be stamped in beyond the
     /// node's own (tf_buffer.rs).
     pub tf: Mutex<TfBuffer>,
-    /// The latest `/odom` pose (map frame) and when it arrived: the follower's feedback.
+    /// The latest odometry pose (map frame) and when it arrived: the follower's feedback.
     pub odom: RwLock<Option<(Pose2, Instant)>>,
+    /// Where odometry came from last, and when `odom_frame -> robot_base_frame` last arrived on
+    /// `/tf` ([`Shared::odometry`]).
+    odometry_source: Mutex<(Option<OdometrySource>, Option<Instant>)>,
     /// The same pose in the odometry frame, as it arrived (Nav2's `local_frame`): what a
     /// behaviour's motion measures its turning and driving by, so that a localisation update
     /// (AMCL's correction during a recovery spin) is not taken for motion.
@@ -235,6 +239,15 @@ pub struct Shared {
     pub lifecycle: RwLock<crate::lifecycle::State>,
     /// The navigation going on, if any (see [`Shared::start_navigating`]).
     navigator: Mutex<Option<Navigation>>,
+}
+
+/// Where an odometry pose comes from ([`Shared::odometry`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OdometrySource {
+    /// `odom_frame -> robot_base_frame` on `/tf`, as Nav2 reads the robot's pose.
+    Tf,
+    /// `/odom` (nav_msgs/Odometry), while that transform does not come.
+    Topic,
 }
 
 /// A behaviour's motion being driven.
@@ -297,6 +310,7 @@ impl Shared {
             start: RwLock::new(None),
             goals: AtomicU64::new(0),
             odom: RwLock::new(None),
+            odometry_source: Mutex::new((None, None)),
             odom_local: RwLock::new(None),
             follower: Mutex::new(None),
             motion: Mutex::new(None),
@@ -444,6 +458,50 @@ impl Shared {
             .to_known_frame(frame, stamp, |f| frames.knows(f), &frames.names())
             .map_err(|e| e.to_string())?;
         Ok(crate::convert::iso3(frames.in_global(known)?) * to_known)
+    }
+
+    /// An odometry pose (the robot in `odom_frame`, stamped `stamp` s): the robot's pose from
+    /// now on, carried into the global frame with `map -> odom`. Nav2 reads the robot's pose
+    /// from TF (costmap_2d's `getRobotPose`), where the odometry publishes `odom -> base_link`:
+    /// a robot's driver, or robot_localization's filter fusing the wheels with an IMU while
+    /// `/odom` stays the raw wheel odometry. So the transform is the pose while it keeps coming
+    /// (each within `pose_timeout`), and `/odom` is used only without it (a simulation or a
+    /// driver that publishes no TF). Returns whether the pose was taken.
+    pub fn odometry(&self, source: OdometrySource, stamp: f64, in_odom: Pose2) -> bool {
+        {
+            let mut last = self.odometry_source.lock().expect("lock");
+            let (used, tf_at) = &mut *last;
+            if source == OdometrySource::Tf {
+                *tf_at = Some(Instant::now());
+            } else if tf_at.is_some_and(|t| t.elapsed().as_secs_f64() <= self.params.pose_timeout) {
+                return false;
+            }
+            if *used != Some(source) {
+                let (base, odom) = (&self.params.robot_base_frame, &self.params.odom_frame);
+                match source {
+                    OdometrySource::Tf => info!(
+                        "the robot's pose now comes from `{odom}` -> `{base}` on /tf, as Nav2 \
+                         reads it; /odom is not used while it keeps coming"
+                    ),
+                    OdometrySource::Topic if used.is_some() => warn!(
+                        "no `{odom}` -> `{base}` on /tf for {} s: the robot's pose comes from \
+                         /odom again",
+                        self.params.pose_timeout
+                    ),
+                    OdometrySource::Topic => info!("the robot's pose comes from /odom"),
+                }
+                *used = Some(source);
+            }
+        }
+        let in_map = self
+            .localization
+            .lock()
+            .expect("lock")
+            .odometry(stamp, in_odom);
+        *self.start.write().expect("lock") = Some((in_map, Instant::now()));
+        *self.odom.write().expect("lock") = Some((in_map, Instant::now()));
+        *self.odom_local.write().expect("lock") = Some(in_odom);
+        true
     }
 
     /// The robot's pose (global frame) from odometry no older than `pose_timeout`: what the

@@ -196,6 +196,58 @@ impl TfBuffer {
         }
         Err(TfError::Loop(frame.to_owned()))
     }
+
+    /// The frames from `frame` up to its ancestor `ancestor`, `frame` first and `ancestor`
+    /// left out: the child frames of the edges between them.
+    pub fn path_up_to<'a>(
+        &'a self,
+        frame: &'a str,
+        ancestor: &str,
+    ) -> Result<Vec<&'a str>, TfError> {
+        let mut path = Vec::new();
+        let mut at = frame;
+        // A tree of n edges has paths of at most n edges; more is a loop.
+        for _ in 0..=self.edges.len() {
+            if at == ancestor {
+                return Ok(path);
+            }
+            let Some(edge) = self.edges.get(at) else {
+                return Err(TfError::NotConnected {
+                    frame: frame.to_owned(),
+                    reached: at.to_owned(),
+                    known: format!("`{ancestor}`"),
+                });
+            };
+            path.push(at);
+            at = &edge.parent;
+        }
+        Err(TfError::Loop(frame.to_owned()))
+    }
+
+    /// The transform from `frame` up to its ancestor `ancestor` as tf2 looks it up at time 0:
+    /// at the latest time every dynamic edge between them reaches (the others interpolated
+    /// there), and that time; `None` for the time when every edge between them is static.
+    pub fn latest_up_to(
+        &self,
+        frame: &str,
+        ancestor: &str,
+    ) -> Result<(Isometry3<f64>, Option<f64>), TfError> {
+        let common = self
+            .path_up_to(frame, ancestor)?
+            .iter()
+            .filter_map(|child| match &self.edges[*child].transforms {
+                Transforms::Dynamic(kept) => kept.back().map(|(stamp, _)| *stamp),
+                Transforms::Static(_) => None,
+            })
+            .reduce(f64::min);
+        let (_, transform) = self.to_known_frame(
+            frame,
+            common.unwrap_or(0.0),
+            |f| f == ancestor,
+            &format!("`{ancestor}`"),
+        )?;
+        Ok((transform, common))
+    }
 }
 
 /// Adds a dynamic transform in stamp order (one of an equal stamp replaced), then drops what is
@@ -370,6 +422,73 @@ mod tests {
             );
             assert!(e.to_string().contains("`map` -> `dock`"), "{e}");
         }
+    }
+
+    /// The robot's pose as Nav2 reads it, `odom -> base_footprint` from odometry at 50 Hz and
+    /// a static `base_footprint -> base_link`, looked up at the latest time: the dynamic edge's
+    /// newest transform; with two dynamic edges, the older of their newest times, the other
+    /// interpolated there (tf2's latest common time).
+    #[test]
+    fn the_latest_lookup_is_at_the_latest_common_time() {
+        let mut b = TfBuffer::default();
+        b.insert(
+            &planar("base_footprint", "base_link", 0.0, 0.1, 0.0, 0.0),
+            true,
+        )
+        .unwrap();
+        assert!(matches!(
+            b.latest_up_to("base_link", "odom"),
+            Err(TfError::NotConnected { .. })
+        ));
+        b.insert(
+            &planar("odom", "base_footprint", 5.00, 1.0, 0.0, 0.0),
+            false,
+        )
+        .unwrap();
+        b.insert(
+            &planar("odom", "base_footprint", 5.02, 2.0, 0.0, FRAC_PI_2),
+            false,
+        )
+        .unwrap();
+        assert_eq!(
+            b.path_up_to("base_link", "odom").unwrap(),
+            ["base_link", "base_footprint"]
+        );
+        assert!(b.path_up_to("odom", "odom").unwrap().is_empty());
+        let pose = |(t, stamp): (Isometry3<f64>, Option<f64>)| {
+            (
+                [t.translation.x, t.translation.y, t.rotation.angle()],
+                stamp,
+            )
+        };
+        let (at, stamp) = pose(b.latest_up_to("base_link", "odom").unwrap());
+        assert!(near(at, [2.0, 0.1, FRAC_PI_2]), "{at:?}");
+        assert_eq!(stamp, Some(5.02));
+        // map -> odom from a localizer at 5.01 s and 4.99 s: the chain's latest common time is
+        // 5.01 s, where odom -> base_footprint is halfway between its two transforms.
+        b.insert(&planar("map", "odom", 4.99, 0.0, 0.0, 0.0), false)
+            .unwrap();
+        b.insert(&planar("map", "odom", 5.01, 0.0, 10.0, 0.0), false)
+            .unwrap();
+        let (at, stamp) = pose(b.latest_up_to("base_link", "map").unwrap());
+        assert_eq!(stamp, Some(5.01));
+        let half_turn = FRAC_PI_2 / 2.0;
+        assert!(
+            near(
+                at,
+                [
+                    1.5 + 0.1 * half_turn.cos(),
+                    10.0 + 0.1 * half_turn.sin(),
+                    half_turn
+                ]
+            ),
+            "{at:?}"
+        );
+        // Static edges only: no time.
+        assert_eq!(
+            pose(b.latest_up_to("base_link", "base_footprint").unwrap()).1,
+            None
+        );
     }
 
     /// Frames that lead nowhere known, or in a loop, are named in the error.
