@@ -236,6 +236,27 @@ pub mod tf2_msgs {
     messages!(TFMessage);
 }
 
+pub mod sensor_msgs {
+    use super::std_msgs::Header;
+    use super::*;
+    /// sensor_msgs/LaserScan: a planar range sensor's sweep, what costmap_2d's obstacle layer
+    /// reads most often.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct LaserScan {
+        pub header: Header,
+        pub angle_min: f32,
+        pub angle_max: f32,
+        pub angle_increment: f32,
+        pub time_increment: f32,
+        pub scan_time: f32,
+        pub range_min: f32,
+        pub range_max: f32,
+        pub ranges: Vec<f32>,
+        pub intensities: Vec<f32>,
+    }
+    messages!(LaserScan);
+}
+
 pub mod rosgraph_msgs {
     use super::builtin_interfaces::Time;
     use super::*;

@@ -175,6 +175,22 @@ fn every_message_matches_rclpy_byte_for_byte() {
         g::ODOMETRY,
     );
     check(
+        "LaserScan",
+        patrol_msgs::sensor_msgs::LaserScan {
+            header: header_for("laser"),
+            angle_min: -1.5,
+            angle_max: 1.5,
+            angle_increment: 0.75,
+            time_increment: 0.001,
+            scan_time: 0.1,
+            range_min: 0.05,
+            range_max: 12.0,
+            ranges: vec![1.0, 2.5, f32::INFINITY, 0.25, 12.0],
+            intensities: vec![],
+        },
+        g::LASER_SCAN,
+    );
+    check(
         "GetPlan request",
         GetPlanRequest {
             start: stamped(0.5, 0.5),

@@ -66,6 +66,9 @@ pub struct NodeParams {
     pub behavior_server: BehaviorServerParams,
     /// The local costmap's window (`local_costmap/get_costmap`).
     pub local_costmap: LocalCostmapParams,
+    /// What a laser scanner sees, laid on the node's own grid (Nav2's ObstacleLayer with one
+    /// LaserScan source). Not with `costmap_topic`, whose costmap has its own.
+    pub obstacle_layer: ObstacleLayerParams,
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
     pub enable_stamped_cmd_vel: bool,
@@ -339,6 +342,56 @@ impl Default for LocalCostmapParams {
     }
 }
 
+/// Nav2's ObstacleLayer with one sensor_msgs/LaserScan source (costmap_2d's
+/// `observation_sources: scan` and its `scan:` block, whose key names these keep): each scan,
+/// placed through TF at its stamp, clears the cells its rays cross and marks the cells its
+/// returns fall in; the marks are laid on the map as obstacles and inflated with it, so plans
+/// go round what the robot sees (an open cabinet door, a trolley left in an aisle) and a path
+/// being followed that a new obstacle blocks is planned again.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObstacleLayerParams {
+    /// Run the layer (when a scan arrives). Default true, as in Nav2's global costmap.
+    pub enabled: bool,
+    /// The scans' topic (sensor_msgs/LaserScan, best effort as drivers publish them). Default
+    /// `scan` (in the node's namespace).
+    pub topic: String,
+    /// Returns nearer than this are not marked (m). Default 0.
+    pub obstacle_min_range: f64,
+    /// Returns farther than this are not marked (m). Nav2's default 2.5.
+    pub obstacle_max_range: f64,
+    /// Cells nearer the sensor than this are not cleared (m). Default 0.
+    pub raytrace_min_range: f64,
+    /// Rays clear the cells they cross up to this far (m). Nav2's default 3. At most 50.
+    pub raytrace_max_range: f64,
+    /// An infinite range is "nothing up to the sensor's range" and clears (Nav2's
+    /// `inf_is_valid`); otherwise it is no reading. Default false, as Nav2's.
+    pub inf_is_valid: bool,
+    /// Clear the cells under the robot (its radius round its pose), so that a scan of the
+    /// robot's own body or of someone walking past does not leave it inside an obstacle
+    /// (Nav2's `footprint_clearing_enabled`). Default true.
+    pub footprint_clearing_enabled: bool,
+    /// How often (Hz) what the scans changed is laid on the planning grid, which is then made
+    /// again (Nav2's global costmap `update_frequency`, 1 Hz). Within 0.1..=20.
+    pub update_frequency: f64,
+}
+
+impl Default for ObstacleLayerParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            topic: "scan".into(),
+            obstacle_min_range: 0.0,
+            obstacle_max_range: 2.5,
+            raytrace_min_range: 0.0,
+            raytrace_max_range: 3.0,
+            inf_is_valid: false,
+            footprint_clearing_enabled: true,
+            update_frequency: 1.0,
+        }
+    }
+}
+
 impl Default for NodeParams {
     fn default() -> Self {
         Self {
@@ -356,6 +409,7 @@ impl Default for NodeParams {
             recovery: RecoveryParams::default(),
             behavior_server: BehaviorServerParams::default(),
             local_costmap: LocalCostmapParams::default(),
+            obstacle_layer: ObstacleLayerParams::default(),
             enable_stamped_cmd_vel: false,
             robot_base_frame: "base_link".into(),
             control_rate_hz: 20.0,
@@ -470,6 +524,16 @@ impl NodeParams {
             || b.cmd_vel_teleop.is_empty()
         {
             return Err("behavior_server: simulate_ahead_time within 0..=10 s, projection_time within 0.1..=10 s, simulation_time_step at least 0.01 s and below projection_time, cmd_vel_teleop a topic".into());
+        }
+        let o = &self.obstacle_layer;
+        if !within(o.obstacle_min_range, 0.0, o.obstacle_max_range)
+            || !within(o.obstacle_max_range, 0.0, 50.0)
+            || !within(o.raytrace_min_range, 0.0, o.raytrace_max_range)
+            || !within(o.raytrace_max_range, 0.0, 50.0)
+            || !within(o.update_frequency, 0.1, 20.0)
+            || o.topic.is_empty()
+        {
+            return Err("obstacle_layer: ranges from 0 to at most 50 m, each min at most its max, update_frequency within 0.1..=20 Hz, topic a topic".into());
         }
         let local = &self.local_costmap;
         if !within(local.width, 0.1, 100.0) || !within(local.height, 0.1, 100.0) {
@@ -1515,6 +1579,21 @@ mod tests {
                 "local_wide.yaml",
                 "    local_costmap: {height: 1.0e9}\n",
                 "local_costmap",
+            ),
+            (
+                "obstacle_ranges.yaml",
+                "    obstacle_layer: {obstacle_min_range: 3.0, obstacle_max_range: 2.0}\n",
+                "obstacle_layer",
+            ),
+            (
+                "raytrace_far.yaml",
+                "    obstacle_layer: {raytrace_max_range: 1.0e6}\n",
+                "obstacle_layer",
+            ),
+            (
+                "obstacle_rate.yaml",
+                "    obstacle_layer: {update_frequency: .nan}\n",
+                "obstacle_layer",
             ),
             (
                 "teleop_step.yaml",

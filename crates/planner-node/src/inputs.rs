@@ -191,10 +191,10 @@ pub fn replan_if_blocked(
 }
 
 /// Makes the planning grid again each time [`Shared::settings_changed`] is told and the costmap
-/// parameters or the keepout mask differ from the grid's, so the next plan does not wait for
-/// it, then checks the path being followed against the new grid as against a new map: a wider
-/// inflation or a new keepout zone may block it, as a costmap_2d reconfigure makes Nav2's
-/// IsPathValid fail and its tree replan. Each grid is checked once, also one a plan made again
+/// parameters, the keepout mask or the obstacles the scans have shown differ from the grid's,
+/// so the next plan does not wait for it, then checks the path being followed against the new
+/// grid as against a new map: a wider inflation, a new keepout zone or an obstacle seen across
+/// it may block it, as a costmap update makes Nav2's IsPathValid fail and its tree replan. Each grid is checked once, also one a plan made again
 /// first.
 ///
 /// Each path handed to the follower is checked too, against the grid as it is then: a plan takes
@@ -203,7 +203,7 @@ pub fn replan_if_blocked(
 pub async fn remake_grid_on_change(s: Arc<Shared>, slot: watch::Sender<GoalSlot>) {
     loop {
         let (why, kept) = tokio::select! {
-            _ = s.settings_changed.notified() => ("the new inflation or keepout mask", Level::Info),
+            _ = s.settings_changed.notified() => ("the new inflation, keepout mask or obstacles seen", Level::Info),
             _ = s.path_installed.notified() => ("the grid as it is now", Level::Debug),
         };
         if let Some(map) = s.current_map_off_thread().await {

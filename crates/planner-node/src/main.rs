@@ -24,6 +24,7 @@ mod localization;
 mod map_server;
 mod navigate;
 mod node;
+mod obstacle_layer;
 mod outputs;
 mod params;
 mod patrol;

@@ -13,6 +13,7 @@
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
+//! | in | `obstacle_layer.topic` (`scan`) | sensor_msgs/LaserScan | best effort, depth 5 (only with `obstacle_layer.enabled`, the default, and no `costmap_topic`: obstacle_layer.rs) |
 //! | in | `/tf`, `/tf_static` | tf2_msgs/TFMessage | reliable, depth 100; `/tf_static` transient local (tf2's listener): the TF tree, `map -> odom`, and the odometry `odom -> base_link`, which wins over `/odom` |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
@@ -39,6 +40,7 @@ use crate::follow;
 use crate::inputs;
 use crate::lifecycle_services;
 use crate::map_server;
+use crate::obstacle_layer;
 use crate::outputs::{CmdVel, Outputs};
 use crate::params::{is_live, unused_on_costmap, validate_parameter, with_setting, SETTINGS};
 use crate::planning;
@@ -63,6 +65,7 @@ use patrol_msgs::nav2_msgs::{
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::rosgraph_msgs::Clock;
+use patrol_msgs::sensor_msgs::LaserScan;
 use patrol_msgs::std_msgs::{Bool, Empty};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
@@ -536,7 +539,22 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         node.create_subscription::<PoseWithCovarianceStamped>(&amcl_topic, Some(volatile.clone()))?;
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
     let odom_topic = topic(&mut node, "odom", "nav_msgs", "Odometry", &best_effort)?;
-    let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort))?;
+    let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort.clone()))?;
+    // The obstacle layer's scans, best effort as laser drivers publish them (sensor data QoS);
+    // not on a costmap taken as it is, which has its own obstacle layer.
+    let layer = &params.obstacle_layer;
+    let scan_sub = if layer.enabled && params.costmap_topic.is_empty() {
+        let t = topic(
+            &mut node,
+            &layer.topic,
+            "sensor_msgs",
+            "LaserScan",
+            &best_effort,
+        )?;
+        Some(node.create_subscription::<LaserScan>(&t, Some(best_effort))?)
+    } else {
+        None
+    };
     // controller_server's speed limits (reliable, volatile, depth 10: its QoS(10)).
     let speed_limit_sub = if params.follow_plan && !params.speed_limit_topic.is_empty() {
         let t = topic(
@@ -803,6 +821,9 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         amcl_sub,
     ));
     tasks.spawn(inputs::receive_odometry(shared.clone(), odom_sub));
+    if let Some(sub) = scan_sub {
+        tasks.spawn(obstacle_layer::receive_scans(shared.clone(), sub));
+    }
     for (name, sub) in tf_subs {
         tasks.spawn(inputs::receive_transforms(shared.clone(), name, sub));
     }

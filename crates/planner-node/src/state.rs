@@ -16,7 +16,8 @@ use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
 use planner_core::grid::inflation::{keepout_cost, planning_grid};
 use planner_core::grid::map::UNKNOWN;
-use planner_core::grid::{GridMap, InflationConfig, PlanningGrid};
+use planner_core::grid::obstacle_layer::ObstacleLayer;
+use planner_core::grid::{GridMap, InflationConfig, MapInfo, PlanningGrid};
 use planner_core::params::ParamError;
 use planner_core::PlannerName;
 use planner_io::parameters::NodeParams;
@@ -36,13 +37,15 @@ pub struct Live {
     pub config: PlannerConfig,
 }
 
-/// What a planning grid is made with beside its map: the costmap parameters as last set and the
-/// keepout mask as last received (`keepout_mask_topic`; Nav2's keepout filter). A grid made with
-/// other settings is made again ([`Shared::current_map`]).
+/// What a planning grid is made with beside its map: the costmap parameters as last set, the
+/// keepout mask as last received (`keepout_mask_topic`; Nav2's keepout filter) and the obstacles
+/// the scans have shown (`obstacle_layer`). A grid made with other settings is made again
+/// ([`Shared::current_map`]).
 #[derive(Clone, Debug)]
 pub struct GridSettings {
     pub costmap: InflationConfig,
     pub keepout: Option<Arc<GridMap>>,
+    pub obstacles: Option<Arc<ObstacleLayer>>,
 }
 
 #[cfg(test)]
@@ -52,6 +55,7 @@ impl GridSettings {
         Self {
             costmap,
             keepout: None,
+            obstacles: None,
         }
     }
 }
@@ -75,10 +79,14 @@ pub struct MapState {
     made_with: InflationConfig,
     /// The keepout mask laid over it, if any (the one received, shared, not a copy).
     keepout: Option<Arc<GridMap>>,
+    /// The obstacles seen by the scans it was made with, if any (laid on the map when they are
+    /// on its grid: [`ObstacleLayer::overlay`]).
+    obstacles: Option<Arc<ObstacleLayer>>,
 }
 
 impl MapState {
-    /// Makes `map`'s planning grid: the node's inflation of it by `settings.costmap`, or, with
+    /// Makes `map`'s planning grid: the node's inflation of it by `settings.costmap`, with the
+    /// obstacles the scans have shown laid on it first (inflated as its walls are), or, with
     /// `as_costmap`, the map as a costmap (already inflated and graded); the keepout mask laid
     /// over it; then downsampled by `costmap.downsampling_factor` ([`planning_grid`]), so the
     /// inflation is exact.
@@ -89,9 +97,19 @@ impl MapState {
     ) -> Result<Self, ParamError> {
         let costmap = &settings.costmap;
         let mask = settings.keepout.as_deref();
-        let (map, grid) = match planning_grid(&source, costmap, as_costmap, mask)? {
-            (Cow::Borrowed(_), grid) => (source.clone(), grid),
-            (Cow::Owned(coarse), grid) => (Arc::new(coarse), grid),
+        let seen = match &settings.obstacles {
+            Some(layer) if !as_costmap && layer.marked_count() > 0 => layer.overlay(&source),
+            _ => None,
+        };
+        let planned_on = seen.as_ref().unwrap_or(&source);
+        let (coarse, grid) = match planning_grid(planned_on, costmap, as_costmap, mask)? {
+            (Cow::Borrowed(_), grid) => (None, grid),
+            (Cow::Owned(coarse), grid) => (Some(coarse), grid),
+        };
+        let map = match (coarse, seen) {
+            (Some(coarse), _) => Arc::new(coarse),
+            (None, Some(seen)) => Arc::new(seen),
+            (None, None) => source.clone(),
         };
         Ok(Self {
             grid,
@@ -100,16 +118,23 @@ impl MapState {
             as_costmap,
             made_with: costmap.clone(),
             keepout: settings.keepout.clone(),
+            obstacles: settings.obstacles.clone(),
         })
     }
 
     /// Whether the grid is what `settings` would make of the map.
     pub fn is_made_with(&self, settings: &GridSettings) -> bool {
-        let same_mask = match (&self.keepout, &settings.keepout) {
-            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-            (None, None) => true,
-            _ => false,
-        };
+        self.sees_what(settings) && self.is_set_as(settings)
+    }
+
+    /// Whether the grid was made with the obstacles `settings` has seen.
+    fn sees_what(&self, settings: &GridSettings) -> bool {
+        same(&self.obstacles, &settings.obstacles)
+    }
+
+    /// Whether the grid was made with the costmap parameters and keepout mask of `settings`.
+    fn is_set_as(&self, settings: &GridSettings) -> bool {
+        let same_mask = same(&self.keepout, &settings.keepout);
         let costmap = &settings.costmap;
         same_mask
             && if self.as_costmap {
@@ -120,8 +145,19 @@ impl MapState {
             }
     }
 
-    /// The map cell for cell the grid's (downsampled, if the grid was): what a published
-    /// costmap marks unknown.
+    /// The grid the map arrived on (before any downsampling): the one the scans' obstacles are
+    /// kept on.
+    pub fn source_info(&self) -> &MapInfo {
+        self.source.info()
+    }
+
+    /// Whether the map is a costmap taken as it is (`costmap_topic`).
+    pub fn is_costmap(&self) -> bool {
+        self.as_costmap
+    }
+
+    /// The map cell for cell the grid's (downsampled, if the grid was), with the obstacles seen
+    /// laid on it: what a published costmap marks unknown.
     pub fn map(&self) -> &GridMap {
         &self.map
     }
@@ -149,6 +185,16 @@ impl MapState {
     }
 }
 
+/// Whether two optional shared values are the same one (not merely equal: comparing two masks
+/// or layers of millions of cells would cost what making the grid again costs).
+fn same<T>(a: &Option<Arc<T>>, b: &Option<Arc<T>>) -> bool {
+    match (a, b) {
+        (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+        (None, None) => true,
+        _ => false,
+    }
+}
+
 /// What the tasks share.
 pub struct Shared {
     /// The node's own parameters (frames, map, follower).
@@ -162,14 +208,17 @@ pub struct Shared {
     /// The keepout mask as last received on `keepout_mask_topic` (Nav2's keepout filter mask,
     /// in the global frame), laid over every grid made from now on.
     pub keepout: RwLock<Option<Arc<GridMap>>>,
+    /// The obstacles the scans have shown, as last laid on the grid (obstacle_layer.rs, at the
+    /// layer's `update_frequency`).
+    pub seen_obstacles: RwLock<Option<Arc<ObstacleLayer>>>,
     /// Held while a grid is made again for changed costmap parameters, so that two requests
     /// arriving together do not both make it.
     pub remaking: Mutex<()>,
     /// Told each time a grid is installed (a new map, or one made again), so the grid can be
     /// published as a costmap (`publish_costmap`).
     pub grid_installed: tokio::sync::Notify,
-    /// Told when a setting changes (`ros2 param set`), and when a map was installed with costmap
-    /// parameters that changed while it was made: the grid is then made again at once
+    /// Told when a setting changes (`ros2 param set`, a keepout mask, the obstacles the scans
+    /// have shown), and when a map was installed with settings that changed while it was made: the grid is then made again at once
     /// (`inputs::remake_grid_on_change`), not by the next plan.
     pub settings_changed: tokio::sync::Notify,
     /// The last grid and path checked against each other (`inputs::replan_if_blocked`), so
@@ -302,6 +351,7 @@ impl Shared {
             live: RwLock::new(live),
             map: RwLock::new(None),
             keepout: RwLock::new(None),
+            seen_obstacles: RwLock::new(None),
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
             settings_changed: tokio::sync::Notify::new(),
@@ -345,6 +395,15 @@ impl Shared {
         if map.is_made_with(&settings) {
             return Some(map);
         }
+        // The scans' obstacles change the grid at the layer's rate: not worth a line each time.
+        let (level, what) = if map.is_set_as(&settings) {
+            (log::Level::Debug, "the obstacles seen changed")
+        } else {
+            (
+                log::Level::Info,
+                "costmap parameters or keepout mask changed",
+            )
+        };
         let t0 = Instant::now();
         match map.remade(&settings) {
             Ok(fresh) => {
@@ -362,8 +421,9 @@ impl Shared {
                 if installed {
                     self.grid_installed.notify_one();
                 }
-                log::info!(
-                    "costmap parameters or keepout mask changed: the {} x {} grid made again in {:.0} ms",
+                log::log!(
+                    level,
+                    "{what}: the {} x {} grid made again in {:.0} ms",
                     fresh.grid.width(),
                     fresh.grid.height(),
                     t0.elapsed().as_secs_f64() * 1e3
@@ -394,6 +454,7 @@ impl Shared {
         GridSettings {
             costmap: self.live.read().expect("lock").config.costmap.clone(),
             keepout: self.keepout.read().expect("lock").clone(),
+            obstacles: self.seen_obstacles.read().expect("lock").clone(),
         }
     }
 

@@ -7,6 +7,8 @@
 //! - [`inflation`]: the [`PlanningGrid`] every planner works on (obstacles inflated by the robot's
 //!   radius through an exact distance transform, clearance per cell);
 //! - [`moves`]: the one 8-neighbour move rule (no corner cutting) of every grid walk;
+//! - [`obstacle_layer`]: what a range sensor sees, marked and cleared as costmap_2d's obstacle
+//!   layer does, laid on the map before it is inflated;
 //! - [`raycast`]: the one collision rule for segments (supercover line of sight);
 //! - [`metrics`]: length, turning, clearance of a path;
 //! - [`smoothing`]: the genetic algorithm paper's delete operation (section 4.5).
@@ -15,6 +17,7 @@ pub mod inflation;
 pub mod map;
 pub mod metrics;
 pub mod moves;
+pub mod obstacle_layer;
 pub mod parsers;
 pub mod raycast;
 pub mod smoothing;

@@ -1,0 +1,363 @@
+//! Obstacles a range sensor sees, kept as costmap_2d's ObstacleLayer keeps them: each
+//! observation first clears the cells its rays pass through (raytracing, up to
+//! `raytrace_max_range`), then marks the cells its returns fall in (up to `obstacle_max_range`).
+//! What a scan saw stays marked until a later ray passes through it: an open cabinet door is
+//! planned around until the robot sees the aisle clear again.
+//!
+//! The layer is a grid of the map's geometry; [`ObstacleLayer::overlay`] lays its marks on the
+//! map as obstacles (100), which the planning grid then inflates like the map's own walls, as
+//! costmap_2d's inflation layer inflates the obstacle layer's cells.
+//!
+//! Pure: the caller brings the sensor's rays already in the map frame ([`scan_rays`] makes them
+//! from a laser scan's ranges and the sensor's pose).
+
+use crate::geometry::{Cell, Point2};
+use crate::grid::map::{GridMap, MapInfo};
+use crate::grid::raycast::supercover;
+
+/// How a scan's ranges are read: Nav2's ObstacleLayer observation source parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RangeLimits {
+    /// Returns nearer than this are not marked (m).
+    pub obstacle_min_range: f64,
+    /// Returns farther than this are not marked (m).
+    pub obstacle_max_range: f64,
+    /// Cells nearer the sensor than this are not cleared (m).
+    pub raytrace_min_range: f64,
+    /// Rays clear cells up to this far (m).
+    pub raytrace_max_range: f64,
+    /// An infinite range means "nothing up to the sensor's maximum range", and clears up to
+    /// it, as Nav2's `inf_is_valid`; otherwise it is no reading.
+    pub inf_is_valid: bool,
+}
+
+/// One ray of an observation, in the map frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Cells are cleared from here...
+    pub clear_from: Point2,
+    /// ... to here, this one's cell left as it is (the return's cell, or the end of the
+    /// raytrace range).
+    pub clear_to: Point2,
+    /// The return, when it is to be marked.
+    pub mark: Option<Point2>,
+}
+
+/// The rays of a planar laser scan (sensor_msgs/LaserScan's fields) as costmap_2d's
+/// ObstacleLayer reads them through laser_geometry: ray `i` at `angle_min + i * increment`,
+/// a range outside `range_min..=range_max` (or NaN) is no reading, an infinite one is the
+/// sensor's maximum range with `inf_is_valid` (clearing, marked only if that is within
+/// `obstacle_max_range`), else no reading. `to_map` carries a point of the sensor's frame
+/// (x, y in its scan plane) into the map frame; the sensor is at its (0, 0).
+pub fn scan_rays(
+    ranges: &[f32],
+    angle_min: f64,
+    increment: f64,
+    range_min: f64,
+    range_max: f64,
+    limits: &RangeLimits,
+    to_map: impl Fn(f64, f64) -> Point2,
+) -> Vec<Ray> {
+    let mut rays = Vec::with_capacity(ranges.len());
+    for (i, &r) in ranges.iter().enumerate() {
+        let r = f64::from(r);
+        let r = if r == f64::INFINITY && limits.inf_is_valid {
+            // Nav2 reads it as just under range_max, so laser_geometry keeps the point.
+            range_max - 1e-4
+        } else if r.is_finite() && r >= range_min && r <= range_max {
+            r
+        } else {
+            continue;
+        };
+        let (sin, cos) = (angle_min + i as f64 * increment).sin_cos();
+        let at = |d: f64| to_map(d * cos, d * sin);
+        let mark = (limits.obstacle_min_range..=limits.obstacle_max_range).contains(&r);
+        let clear_from = limits.raytrace_min_range.min(r);
+        rays.push(Ray {
+            clear_from: at(clear_from),
+            clear_to: at(r.min(limits.raytrace_max_range).max(clear_from)),
+            mark: mark.then(|| at(r)),
+        });
+    }
+    rays
+}
+
+/// The cells a range sensor has seen occupied, on a map's grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObstacleLayer {
+    info: MapInfo,
+    marked: Vec<bool>,
+    count: usize,
+}
+
+impl ObstacleLayer {
+    /// An empty layer on the grid `info` describes.
+    pub fn new(info: MapInfo) -> Self {
+        Self {
+            marked: vec![false; info.cell_count()],
+            info,
+            count: 0,
+        }
+    }
+
+    /// The grid the layer is on.
+    pub fn info(&self) -> &MapInfo {
+        &self.info
+    }
+
+    /// How many cells are marked.
+    pub fn marked_count(&self) -> usize {
+        self.count
+    }
+
+    /// Whether cell `c` (inside the map) is marked.
+    pub fn is_marked(&self, c: Cell) -> bool {
+        self.marked[self.info.index(c)]
+    }
+
+    /// One observation: every ray clears first, then every return is marked, so a return is
+    /// not cleared by its neighbour's ray (costmap_2d's `raytraceFreespace` before marking).
+    /// Parts of rays off the map are skipped. Returns whether any cell changed.
+    pub fn observe(&mut self, rays: &[Ray]) -> bool {
+        let mut changed = false;
+        for ray in rays {
+            let (a, b) = (
+                self.info.world_to_grid(ray.clear_from),
+                self.info.world_to_grid(ray.clear_to),
+            );
+            let end = Cell::containing(b);
+            supercover(a, b, |c| {
+                if c != end && self.info.contains(c) {
+                    changed |= self.set(c, false);
+                }
+                true
+            });
+        }
+        for p in rays.iter().filter_map(|r| r.mark) {
+            if let Some(c) = self.info.world_to_cell(p) {
+                changed |= self.set(c, true);
+            }
+        }
+        changed
+    }
+
+    /// Clears every cell whose centre is within `radius` (m) of `center` (the map frame): the
+    /// robot's own footprint, as costmap_2d's `footprint_clearing_enabled` clears it, so that
+    /// a return off the robot's body, or off someone brushing past, does not leave it standing
+    /// in an obstacle it cannot plan out of. Returns whether any cell changed.
+    pub fn clear_disc(&mut self, center: Point2, radius: f64) -> bool {
+        let Some(c) = self.info.world_to_cell(center) else {
+            return false;
+        };
+        let reach = (radius / self.info.resolution).ceil() as i32 + 1;
+        let mut changed = false;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let cell = c.offset(dx, dy);
+                if self.info.contains(cell)
+                    && (self.info.cell_to_world(cell) - center).norm() <= radius
+                {
+                    changed |= self.set(cell, false);
+                }
+            }
+        }
+        changed
+    }
+
+    /// Marks or clears one cell; returns whether it changed.
+    fn set(&mut self, c: Cell, on: bool) -> bool {
+        let slot = &mut self.marked[self.info.index(c)];
+        if *slot == on {
+            return false;
+        }
+        *slot = on;
+        if on {
+            self.count += 1;
+        } else {
+            self.count -= 1;
+        }
+        true
+    }
+
+    /// `map` with every marked cell an obstacle (100), or `None` when `map` is not on the
+    /// layer's grid (a new map came: the layer must be made again for it).
+    pub fn overlay(&self, map: &GridMap) -> Option<GridMap> {
+        if *map.info() != self.info {
+            return None;
+        }
+        let data = map
+            .data()
+            .iter()
+            .zip(&self.marked)
+            .map(|(&v, &m)| if m { 100 } else { v })
+            .collect();
+        GridMap::new(self.info, data).ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Pose2;
+
+    /// A 4 m x 2 m grid at 0.1 m, origin at (0, 0).
+    fn info() -> MapInfo {
+        MapInfo {
+            width: 40,
+            height: 20,
+            resolution: 0.1,
+            origin: Pose2::new(0.0, 0.0, 0.0),
+        }
+    }
+
+    fn limits() -> RangeLimits {
+        RangeLimits {
+            obstacle_min_range: 0.0,
+            obstacle_max_range: 2.5,
+            raytrace_min_range: 0.0,
+            raytrace_max_range: 3.0,
+            inf_is_valid: false,
+        }
+    }
+
+    /// A sensor at (0.55, 1.05) facing +x: its frame's (x, y) in the map.
+    fn sensor(x: f64, y: f64) -> Point2 {
+        Point2::new(0.55 + x, 1.05 + y)
+    }
+
+    fn cell_at(x: f64, y: f64) -> Cell {
+        info().world_to_cell(Point2::new(x, y)).unwrap()
+    }
+
+    /// A return is marked; the cells before it along the ray are cleared; a later scan whose
+    /// ray passes through the marked cell clears it (the door was closed), and one that ends
+    /// in it keeps it.
+    #[test]
+    fn returns_are_marked_and_rays_clear_what_they_pass() {
+        let mut layer = ObstacleLayer::new(info());
+        let one = |r: f32| scan_rays(&[r], 0.0, 0.1, 0.05, 10.0, &limits(), sensor);
+        assert!(layer.observe(&one(1.5)));
+        assert!(layer.is_marked(cell_at(2.05, 1.05)));
+        assert_eq!(layer.marked_count(), 1);
+        assert!(!layer.observe(&one(1.5)), "the same scan changes nothing");
+        assert!(layer.observe(&one(2.0)));
+        assert!(
+            !layer.is_marked(cell_at(2.05, 1.05)),
+            "a ray through it clears it"
+        );
+        assert!(layer.is_marked(cell_at(2.55, 1.05)));
+        assert_eq!(layer.marked_count(), 1);
+    }
+
+    /// Ranges are read as Nav2 reads them: out of the sensor's range or NaN is no reading,
+    /// beyond obstacle_max_range clears without marking, infinity clears only with
+    /// inf_is_valid, clearing stops at raytrace_max_range and starts at raytrace_min_range.
+    #[test]
+    fn ranges_are_gated_as_the_obstacle_layer_gates_them() {
+        let scan = |ranges: &[f32], limits: &RangeLimits| {
+            scan_rays(ranges, 0.0, 0.0, 0.1, 3.2, limits, sensor)
+        };
+        assert!(scan(&[0.05, 3.5, f32::NAN, f32::INFINITY, -1.0], &limits()).is_empty());
+        let far = scan(&[2.8], &limits());
+        assert_eq!(far.len(), 1);
+        assert_eq!(
+            far[0].mark, None,
+            "beyond obstacle_max_range: cleared, not marked"
+        );
+        let inf_valid = RangeLimits {
+            inf_is_valid: true,
+            ..limits()
+        };
+        let inf = scan(&[f32::INFINITY], &inf_valid);
+        assert_eq!(inf.len(), 1);
+        assert_eq!(inf[0].mark, None);
+        assert!(
+            (inf[0].clear_to.x - sensor(3.0, 0.0).x).abs() < 1e-9,
+            "up to raytrace_max_range"
+        );
+        // A wall of marks along the ray's row.
+        let mut layer = ObstacleLayer::new(info());
+        for x in 0..40 {
+            layer.set(Cell::new(x, 10), true);
+        }
+        let near_kept = RangeLimits {
+            raytrace_min_range: 1.0,
+            ..limits()
+        };
+        layer.observe(&scan(&[2.8], &near_kept));
+        let still: Vec<i32> = (0..40)
+            .filter(|&x| layer.is_marked(Cell::new(x, 10)))
+            .collect();
+        // Cleared from 1.0 m (x 1.55 m, cell 15) to the return at 2.8 m (x 3.35 m, cell 33),
+        // whose cell is left as it is.
+        assert_eq!(still, (0..15).chain(33..40).collect::<Vec<_>>());
+        assert_eq!(layer.marked_count(), still.len());
+    }
+
+    /// A rotated sensor's rays go where its pose puts them; rays off the map are skipped.
+    #[test]
+    fn rays_follow_the_sensor_pose_and_stay_on_the_map() {
+        let mut layer = ObstacleLayer::new(info());
+        // Facing +y from (0.55, 0.55): a return 1 m ahead is at (0.55, 1.55).
+        let up = |x: f64, y: f64| Point2::new(0.55 - y, 0.55 + x);
+        layer.observe(&scan_rays(&[1.0], 0.0, 0.0, 0.0, 10.0, &limits(), up));
+        assert!(layer.is_marked(cell_at(0.55, 1.55)));
+        // From off the map, through it and off it again.
+        let outside = |x: f64, y: f64| Point2::new(-1.0 + x, 1.05 + y);
+        let long = RangeLimits {
+            obstacle_max_range: 10.0,
+            raytrace_max_range: 10.0,
+            ..limits()
+        };
+        layer.observe(&scan_rays(&[6.0], 0.0, 0.0, 0.0, 10.0, &long, outside));
+        assert_eq!(layer.marked_count(), 1, "the return is off the map");
+    }
+
+    /// The robot's footprint is cleared: the cells within its radius, no others.
+    #[test]
+    fn the_footprint_is_cleared() {
+        let mut layer = ObstacleLayer::new(info());
+        for x in 0..40 {
+            layer.set(Cell::new(x, 10), true);
+        }
+        // Centres at x = 0.05 + 0.1 k on row 10 (y 1.05): within 0.3 m of (2.0, 1.05) are
+        // cells 17..=22 (1.75..2.25 m).
+        assert!(layer.clear_disc(Point2::new(2.0, 1.05), 0.3));
+        let kept: Vec<i32> = (0..40)
+            .filter(|&x| layer.is_marked(Cell::new(x, 10)))
+            .collect();
+        assert_eq!(kept, (0..17).chain(23..40).collect::<Vec<_>>());
+        assert!(!layer.clear_disc(Point2::new(2.0, 1.05), 0.3));
+        assert!(
+            !layer.clear_disc(Point2::new(-5.0, 1.05), 0.3),
+            "off the map"
+        );
+    }
+
+    /// The overlay makes marked cells obstacles and leaves the rest of the map as it was;
+    /// a map of another geometry gets none.
+    #[test]
+    fn the_overlay_lays_marks_on_the_map_of_the_same_grid() {
+        let mut data = vec![0i8; 800];
+        data[5] = -1;
+        data[6] = 100;
+        let map = GridMap::new(info(), data.clone()).unwrap();
+        let mut layer = ObstacleLayer::new(info());
+        layer.set(Cell::new(5, 0), true);
+        layer.set(Cell::new(7, 0), true);
+        let laid = layer.overlay(&map).unwrap();
+        data[5] = 100;
+        data[7] = 100;
+        assert_eq!(laid.data(), &data[..]);
+        let other = GridMap::new(
+            MapInfo {
+                width: 20,
+                height: 40,
+                ..info()
+            },
+            vec![0; 800],
+        )
+        .unwrap();
+        assert!(layer.overlay(&other).is_none());
+    }
+}

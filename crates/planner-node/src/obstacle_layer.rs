@@ -1,0 +1,169 @@
+//! The node's obstacle layer (`obstacle_layer`): laser scans in, the obstacles they show laid on
+//! the planning grid, as Nav2's global costmap runs its ObstacleLayer between the static map and
+//! the inflation.
+//!
+//! Each scan is placed in the global frame through TF at its stamp (the sensor's frame up to the
+//! robot, then the robot's pose), clears the cells its rays cross and marks those its returns
+//! fall in (planner_core's `ObstacleLayer`); the robot's own footprint is cleared. At the
+//! layer's `update_frequency` what changed is handed to the grid ([`Shared::seen_obstacles`]),
+//! which is made again, and the path being followed is checked against it as against a new
+//! map: an obstacle across it is planned round (`inputs::remake_grid_on_change`).
+//!
+//! A bad scan (numbers that are not finite, more rays than [`MAX_RAYS`], a frame TF cannot
+//! place) is logged once per kind of fault and skipped; the layer goes on.
+
+use crate::state::Shared;
+use log::{debug, info, warn};
+use nalgebra::Point3;
+use patrol_msgs::sensor_msgs::LaserScan;
+use planner_core::geometry::Point2;
+use planner_core::grid::obstacle_layer::{scan_rays, ObstacleLayer, RangeLimits};
+use ros2_client::Subscription;
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The most rays a scan may have: a 0.1-degree scanner has 3600. A scan beyond it is refused,
+/// so no message can make the layer trace without end.
+pub const MAX_RAYS: usize = 20_000;
+
+/// Takes the scans on `sub` into the layer, and hands the layer to the grid when it changed, at
+/// most at `update_frequency`.
+pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
+    let params = s.params.obstacle_layer.clone();
+    let limits = RangeLimits {
+        obstacle_min_range: params.obstacle_min_range,
+        obstacle_max_range: params.obstacle_max_range,
+        raytrace_min_range: params.raytrace_min_range,
+        raytrace_max_range: params.raytrace_max_range,
+        inf_is_valid: params.inf_is_valid,
+    };
+    let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / params.update_frequency));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut layer: Option<ObstacleLayer> = None;
+    let mut changed = false;
+    let mut faults = HashSet::new();
+    loop {
+        tokio::select! {
+            taken = sub.async_take() => {
+                let Ok((scan, _)) = taken else {
+                    continue;
+                };
+                match observe(&s, &mut layer, &scan, &limits).await {
+                    Ok(c) => changed |= c,
+                    Err(Fault { kind, why }) => {
+                        // One line per kind of fault, not one per scan at the scanner's rate.
+                        if faults.insert(kind) {
+                            warn!("{}: a scan skipped: {why}", params.topic);
+                        } else {
+                            debug!("{}: a scan skipped: {why}", params.topic);
+                        }
+                    }
+                }
+            }
+            _ = tick.tick() => {
+                if !changed {
+                    continue;
+                }
+                changed = false;
+                let seen = layer.clone().map(Arc::new);
+                if let Some(l) = &seen {
+                    debug!("{}: {} cells seen occupied", params.topic, l.marked_count());
+                }
+                *s.seen_obstacles.write().expect("lock") = seen;
+                s.settings_changed.notify_one();
+            }
+        }
+    }
+}
+
+/// Why a scan was skipped: its kind (logged once) and the details.
+struct Fault {
+    kind: &'static str,
+    why: String,
+}
+
+/// One scan into the layer; returns whether it changed the layer. The layer is made afresh on
+/// the current map's grid when the map changed (a new floor: what was seen on the old one is
+/// no longer where it was). Nothing happens before the first map, or on a costmap taken as it is.
+async fn observe(
+    s: &Shared,
+    layer: &mut Option<ObstacleLayer>,
+    scan: &LaserScan,
+    limits: &RangeLimits,
+) -> Result<bool, Fault> {
+    let numbers = [
+        scan.angle_min,
+        scan.angle_increment,
+        scan.range_min,
+        scan.range_max,
+    ];
+    if numbers.iter().any(|v| !v.is_finite()) || scan.range_min < 0.0 {
+        return Err(Fault {
+            kind: "numbers",
+            why: format!(
+                "angle_min {}, angle_increment {}, range_min {}, range_max {}: each must be \
+                 finite, the ranges not negative",
+                scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max
+            ),
+        });
+    }
+    if scan.ranges.len() > MAX_RAYS {
+        return Err(Fault {
+            kind: "rays",
+            why: format!("{} rays, more than {MAX_RAYS}", scan.ranges.len()),
+        });
+    }
+    let Some(info) = s
+        .map
+        .read()
+        .expect("lock")
+        .as_ref()
+        .filter(|m| !m.is_costmap())
+        .map(|m| *m.source_info())
+    else {
+        return Ok(false);
+    };
+    if layer.as_ref().is_none_or(|l| *l.info() != info) {
+        if layer.is_some() {
+            info!("a new map: the obstacles seen on the last one are forgotten");
+        }
+        *layer = Some(ObstacleLayer::new(info));
+    }
+    let sensor = s
+        .frame_in_global(
+            &scan.header.frame_id,
+            crate::convert::seconds(&scan.header.stamp),
+        )
+        .await
+        .map_err(|f| Fault {
+            kind: "frame",
+            why: f.message,
+        })?;
+    let rays = scan_rays(
+        &scan.ranges,
+        f64::from(scan.angle_min),
+        f64::from(scan.angle_increment),
+        f64::from(scan.range_min),
+        f64::from(scan.range_max),
+        limits,
+        |x, y| {
+            let p = sensor * Point3::new(x, y, 0.0);
+            Point2::new(p.x, p.y)
+        },
+    );
+    let Some(layer) = layer.as_mut() else {
+        return Ok(false);
+    };
+    let mut changed = layer.observe(&rays);
+    if s.params.obstacle_layer.footprint_clearing_enabled {
+        if let Some(robot) = s
+            .fresh_odom()
+            .or_else(|| s.start.read().expect("lock").map(|(p, _)| p))
+        {
+            let radius = s.live.read().expect("lock").config.costmap.robot_radius;
+            changed |= layer.clear_disc(robot.position(), radius);
+        }
+    }
+    Ok(changed)
+}
