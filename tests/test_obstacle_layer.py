@@ -3,7 +3,9 @@
 that sees a block across the direct route gets plans that go round it, inflated as the map's
 walls are; a later scan whose rays pass through where the block was clears it, and plans go
 straight again. Returns beyond obstacle_max_range (2.5 m) mark nothing; a scan with numbers that
-are not finite is skipped and the node goes on."""
+are not finite is skipped and the node goes on. costmap_2d's clearing services clear what the
+scans marked, in their regions (a square round the robot, all but it), at once; so does a
+recovery, the first of Nav2's round robin."""
 import math
 
 import numpy as np
@@ -15,7 +17,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
-from conftest import Ros, call_service, domain_id, initial_pose, start_node, stamped, stop_binary
+from conftest import ROOT, Ros, call_service, domain_id, initial_pose, start_node, stamped, stop_binary
 from test_node import grid_msg
 
 # A 6 m x 3 m room (0.1 m cells, origin at 0, 0), empty. The robot at (0.5, 1.5) facing +x, its
@@ -27,16 +29,17 @@ RAYS = 181  # -90 .. 90 degrees, a degree apart
 RATE_HZ = 10
 
 
-def scan_ranges(block):
-    """Each ray's range: to the block's near face where it hits it (`block`), else 4 m (past
-    obstacle_max_range, so the ray clears up to raytrace_max_range and marks nothing)."""
+def scan_ranges(block, span=BLOCK_Y):
+    """Each ray's range: to the block's near face where it hits it (`block`; the face spans
+    `span` in y), else 4 m (past obstacle_max_range, so the ray clears up to
+    raytrace_max_range and marks nothing)."""
     ranges = []
     for i in range(RAYS):
         a = math.radians(-90 + i)
         hit = None
         if block and math.cos(a) > 1e-6:
             r = (BLOCK_X[0] - LASER_X) / math.cos(a)
-            if BLOCK_Y[0] <= START[1] + r * math.sin(a) <= BLOCK_Y[1]:
+            if span[0] <= START[1] + r * math.sin(a) <= span[1]:
                 hit = r
         ranges.append(hit if hit is not None else 4.0)
     return ranges
@@ -46,7 +49,7 @@ class Laser:
     """Publishes at RATE_HZ a scan that sees the block while `block`, else one that does not."""
 
     def __init__(self, ros):
-        self.ros, self.block, self.bad = ros, True, False
+        self.ros, self.block, self.bad, self.on, self.span = ros, True, False, True, BLOCK_Y
         self.pub = ros.node.create_publisher(LaserScan, "/scan", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
         static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
             depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
@@ -60,12 +63,14 @@ class Laser:
         ros.node.create_timer(1.0 / RATE_HZ, self.tick)
 
     def tick(self):
+        if not self.on:
+            return
         m = LaserScan()
         m.header.stamp = self.ros.node.get_clock().now().to_msg()
         m.header.frame_id = "laser"
         m.angle_min, m.angle_max, m.angle_increment = -math.pi / 2, math.pi / 2, math.radians(1.0)
         m.range_min, m.range_max = 0.05, 10.0
-        m.ranges = scan_ranges(self.block)
+        m.ranges = scan_ranges(self.block, self.span)
         if self.bad:
             m.angle_increment = float("nan")
         self.pub.publish(m)
@@ -111,17 +116,63 @@ def crosses_block(points):
 
 
 def test_a_scanned_obstacle_is_planned_round_until_a_scan_clears_it(rig):
+    from nav2_msgs.srv import ClearCostmapAroundRobot, ClearCostmapExceptRegion
+
     ros, laser = rig
-    around = ros.spin_until(lambda: (lambda p: p if (swerve(p) or 0) > 0.5 else None)(plan(ros)), 30,
-                            "a plan round the block the scan shows")
+
+    def goes_round():
+        p = plan(ros)
+        return p if (swerve(p) or 0) > 0.5 else None
+
+    def goes_straight():
+        p = plan(ros)
+        return p if swerve(p) is not None and swerve(p) < 0.05 else None
+
+    around = ros.spin_until(goes_round, 30, "a plan round the block the scan shows")
     assert not crosses_block(around)
     # Round it by the robot's inflated radius (0.45 m): through the gap above or below.
     assert swerve(around) > (BLOCK_Y[1] - START[1]) + 0.4, around
     # A scan with a NaN increment is skipped; the block stays as the last good scans left it.
     laser.bad = True
     ros.spin_for(1.0)
-    assert swerve(plan(ros)) > 0.5
-    laser.bad, laser.block = False, False
-    straight = ros.spin_until(lambda: (lambda p: p if swerve(p) is not None and swerve(p) < 0.05 else None)(plan(ros)),
-                              30, "a straight plan once the scan's rays pass where the block was")
+    assert goes_round()
+
+    # The scans stop; costmap_2d's clearing services clear what they marked, in their regions:
+    # a 1 m square round the robot (at 0.5, 1.5) leaves the block (2.8 m on) as it is; all but
+    # that square clears it, and the next plan goes straight.
+    laser.on, laser.bad = False, False
+    ros.spin_for(0.3)
+    call_service(ros, ClearCostmapAroundRobot, "/global_costmap/clear_around_global_costmap",
+                 ClearCostmapAroundRobot.Request(reset_distance=1.0))
+    assert goes_round(), "the block is outside the square cleared"
+    call_service(ros, ClearCostmapExceptRegion, "/global_costmap/clear_except_global_costmap",
+                 ClearCostmapExceptRegion.Request(reset_distance=1.0))
+    assert goes_straight(), "the block is outside the square kept"
+
+    # Seen again, then a scan whose rays pass where it was: round it, then straight again.
+    laser.on = True
+    ros.spin_until(goes_round, 30, "a plan round the block seen again")
+    laser.block = False
+    straight = ros.spin_until(goes_straight, 30, "a straight plan once the scan's rays pass where the block was")
     assert straight[-1] == pytest.approx(GOAL)
+
+
+def test_a_recovery_clears_what_the_scans_marked(rig):
+    """A wall the scan saw across the whole room (the person who stood there has gone out of
+    the scanner's view): a /goal_pose beyond it finds no path, and its recovery, first of the
+    round robin, clears the layer as Nav2's ClearingActions do; the goal is planned again."""
+    ros, laser = rig
+    laser.span = (0.0, 3.0)
+    ros.spin_until(lambda: not plan(ros), 30, "no path through the wall the scan shows")
+    laser.on = False
+    ros.spin_for(0.3)
+    assert not plan(ros), "the wall stays while nothing clears it"
+    ros.wait_matched(ros.goal_pub, "/goal_pose")
+    before = len(ros.plans)
+    ros.goal_pub.publish(stamped(*GOAL))
+    path = ros.spin_until(lambda: next((p for p in ros.plans[before:] if p.poses), None), 30,
+                          "a /plan to the goal after the recovery")
+    end = path.poses[-1].pose.position
+    assert (end.x, end.y) == pytest.approx(GOAL)
+    log = (ROOT / "target" / "patrol_planner_obstacle_layer_test.log").read_text()
+    assert "recovery: the obstacles seen cleared" in log, log[-2000:]

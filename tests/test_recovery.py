@@ -25,7 +25,7 @@ is "blocked" and otherwise moving as /cmd_vel tells it (a unicycle at the node's
 - The costmaps as nav2_simple_commander asks for them: getGlobalCostmap() (GetCostmap) the room's
   grid, the pillar lethal, its inflated band inscribed, the open floor free; getLocalCostmap() a
   3 m window of it round the robot; clearAllCostmaps() and the other clearing services answered,
-  the grid as it was (nothing in it is a layer costmap_2d clears).
+  the grid as it was (no scan marked anything; the map is not a layer costmap_2d clears).
 - A patrol (follow_waypoints) waits at each waypoint for the inspection's word (Nav2's
   InputAtWaypoint): a waypoint without one is missed after the timeout (601), the patrol goes on.
   A patrol whose pass reaches none of its waypoints ends (601) instead of running its passes.
@@ -101,7 +101,9 @@ def rig(tmp_path):
         "patrol_planner:\n  ros__parameters:\n"
         '    map_yaml: ""\n    planner: astar\n'
         f"    progress_checker: {{movement_time_allowance: {ALLOWANCE}}}\n"
-        f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
+        # The round robin's motions only: nothing is scanned here, so its first step, clearing
+        # the obstacle layer (test_obstacle_layer.py), would only spend a retry.
+        f"    recovery: {{number_of_retries: {RETRIES}, behaviors: [spin, wait, backup], wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
         "    speed_filter_info_topic: /speed_filter_info\n"
         "    binary_filter: {filter_info_topic: /binary_filter_info}\n"
         f"    input_at_waypoint: {{enabled: true, timeout: {INPUT_TIMEOUT}}}\n"
@@ -591,8 +593,9 @@ def test_the_costmaps_as_nav2_simple_commander_asks(rig):
     assert (window[27:, :] == 255).all(), "past the room: no information"
     assert (window[17:27, 18:23] == 254).all(), "the pillar"
 
-    # clearAllCostmaps() and the other clearing services answer and clear nothing: the grid
-    # is the map, its inflation and filters, none of which costmap_2d clears.
+    # clearAllCostmaps() and the other clearing services answer and clear nothing here: the
+    # grid is the map, its inflation and filters, none of which costmap_2d clears (what a scan
+    # marks is cleared: test_obstacle_layer.py).
     for costmap_name in ("global_costmap", "local_costmap"):
         for prefix, srv, request in (
             ("clear_entirely_", ClearEntireCostmap, ClearEntireCostmap.Request()),

@@ -3,6 +3,8 @@
 //! - A* and the any-angle reference on `substation_1000` and the ROS maps, each beside the same
 //!   query solved by the `pathfinding` crate's A* (ours should not be slower);
 //! - inflation (exact distance transform) of the 1000 x 1000 `substation_1000`;
+//! - one obstacle-layer update on Nav2's 2000 x 2000 benchmark map: a 1080-ray scan observed,
+//!   laid on the map, the map inflated again (what the node does at `update_frequency`);
 //! - the collision check of one 32-waypoint path on `datacenter_100`.
 //!
 //! Every benchmark first asserts that what it measures is valid (same length as the oracle, a
@@ -12,6 +14,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use ordered_float::OrderedFloat;
 use planner_core::geometry::{Cell, Point2};
 use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
+use planner_core::grid::obstacle_layer::{scan_rays, ObstacleLayer, RangeLimits};
 use planner_core::grid::raycast::path_is_free;
 use planner_core::grid::GridMap;
 use planner_core::planner::{validate, PlanContext, Planner, PlannerRng, Query};
@@ -138,6 +141,44 @@ fn inflation(c: &mut Criterion) {
     });
 }
 
+fn obstacle_layer_update(c: &mut Criterion) {
+    let map = planner_io::load_map_server(&shared("nav2bench/100by100_20.yaml")).unwrap();
+    assert_eq!((map.width(), map.height()), (2000, 2000));
+    let info = *map.info();
+    // A 270-degree scanner (1080 rays, a quarter degree apart) in the middle of the map, every
+    // return 2 m away: a ring of marks within obstacle_max_range.
+    let centre = info.grid_to_world(Point2::new(1000.0, 1000.0));
+    let limits = RangeLimits {
+        obstacle_min_range: 0.0,
+        obstacle_max_range: 2.5,
+        raytrace_min_range: 0.0,
+        raytrace_max_range: 3.0,
+        inf_is_valid: false,
+    };
+    let ranges = vec![2.0f32; 1080];
+    let increment = 1.5 * std::f64::consts::PI / 1080.0;
+    let rays = scan_rays(
+        &ranges,
+        -0.75 * std::f64::consts::PI,
+        increment,
+        0.05,
+        10.0,
+        &limits,
+        |x, y| Point2::new(centre.x + x, centre.y + y),
+    );
+    let mut layer = ObstacleLayer::new(info);
+    assert!(layer.observe(&rays) && layer.marked_count() > 100);
+    c.bench_function("obstacle_layer/scan_1080_rays", |b| {
+        b.iter(|| black_box(&mut layer).observe(black_box(&rays)))
+    });
+    c.bench_function("obstacle_layer/lay_and_inflate_nav2bench_2000", |b| {
+        b.iter(|| {
+            let seen = layer.overlay(black_box(&map)).unwrap();
+            PlanningGrid::new(&seen, &InflationConfig::default()).unwrap()
+        })
+    });
+}
+
 fn collision_check(c: &mut Criterion) {
     let (_, grid) = load("bench/datacenter_100.yaml");
     let q = Query {
@@ -174,5 +215,11 @@ fn collision_check(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, graph_search, inflation, collision_check);
+criterion_group!(
+    benches,
+    graph_search,
+    inflation,
+    obstacle_layer_update,
+    collision_check
+);
 criterion_main!(benches);

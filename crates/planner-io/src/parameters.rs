@@ -171,14 +171,14 @@ pub struct NodeParams {
 /// over to the one after it, as in the round robin), and plans again from where it is, through
 /// the poses not yet passed. Only failures a recovery may help are tried again, as Nav2's
 /// `WouldAPlannerRecoveryHelp` and `WouldAControllerRecoveryHelp` decide: no valid path, a
-/// planner timeout, an unknown error, no progress. Clearing the costmaps is not among them: the
-/// node's grid holds only the map (or Nav2's costmap, which Nav2 clears), nothing it marked.
+/// planner timeout, an unknown error, no progress.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RecoveryParams {
     /// How many times a failed drive is tried again (Nav2's default trees: 6). 0: never.
     pub number_of_retries: u32,
-    /// The behaviours, taken in turn, one per recovery (Nav2's tree: spin, wait, back-up).
+    /// The behaviours, taken in turn, one per recovery (Nav2's tree: clear, spin, wait,
+    /// back-up).
     pub behaviors: Vec<RecoveryBehavior>,
     /// The spin's angle (rad; Nav2's tree: `spin_dist` 1.57).
     pub spin_dist: f64,
@@ -196,6 +196,10 @@ pub struct RecoveryParams {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RecoveryBehavior {
+    /// Forget the obstacles the scans marked (the tree's ClearingActions: ClearEntireCostmap
+    /// on both costmaps): a person who stood in the way and has walked out of the scanner's
+    /// view no longer blocks the next plan. The map and its inflation stay. Always succeeds.
+    Clear,
     /// Turn on the spot through `spin_dist`: lets a robot that lost its way see (and, with
     /// AMCL, localise) around it, and faces it another way for the next plan.
     Spin,
@@ -211,6 +215,7 @@ impl Default for RecoveryParams {
         Self {
             number_of_retries: 6,
             behaviors: vec![
+                RecoveryBehavior::Clear,
                 RecoveryBehavior::Spin,
                 RecoveryBehavior::Wait,
                 RecoveryBehavior::Backup,
@@ -496,7 +501,7 @@ impl NodeParams {
             || r.behaviors.len() > 16
         {
             return Err(
-                "recovery: number_of_retries at most 100, wait_duration within 0..=600 s, time_allowance within 0.1..=600 s, spin_dist within +-4 pi rad, backup_dist within 0.01..=5 m, backup_speed within 0.01..=1 m/s, behaviors 1 to 16 of spin, wait, backup"
+                "recovery: number_of_retries at most 100, wait_duration within 0..=600 s, time_allowance within 0.1..=600 s, spin_dist within +-4 pi rad, backup_dist within 0.01..=5 m, backup_speed within 0.01..=1 m/s, behaviors 1 to 16 of clear, spin, wait, backup"
                     .into(),
             );
         }
@@ -1517,7 +1522,7 @@ mod tests {
         assert_eq!(node.progress_checker.movement_time_allowance, 4.0);
         assert_eq!(node.progress_checker.required_movement_radius, 0.5);
         assert_eq!(node.recovery.number_of_retries, 2);
-        assert_eq!(node.recovery.behaviors.len(), 3);
+        assert_eq!(node.recovery.behaviors.len(), 4);
         let only = write(
             "only_wait.yaml",
             "    recovery: {behaviors: [wait, backup], backup_dist: 0.5}\n",

@@ -9,22 +9,25 @@
 //! |---|---|---|
 //! | `global_costmap/get_costmap` | nav2_msgs/srv/GetCostmap | the whole planning grid |
 //! | `local_costmap/get_costmap` | nav2_msgs/srv/GetCostmap | a `local_costmap.width` x `height` window of it round the robot |
-//! | `<costmap>/clear_entirely_<costmap>` | nav2_msgs/srv/ClearEntireCostmap | nothing to clear (below) |
-//! | `<costmap>/clear_around_<costmap>` | nav2_msgs/srv/ClearCostmapAroundRobot | nothing to clear |
-//! | `<costmap>/clear_except_<costmap>` | nav2_msgs/srv/ClearCostmapExceptRegion | nothing to clear |
-//! | `<costmap>/clear_around_pose_<costmap>` | nav2_msgs/srv/ClearCostmapAroundPose | nothing to clear |
+//! | `<costmap>/clear_entirely_<costmap>` | nav2_msgs/srv/ClearEntireCostmap | the obstacle layer forgets all it saw |
+//! | `<costmap>/clear_around_<costmap>` | nav2_msgs/srv/ClearCostmapAroundRobot | ... what it saw in a `reset_distance` square round the robot |
+//! | `<costmap>/clear_except_<costmap>` | nav2_msgs/srv/ClearCostmapExceptRegion | ... everywhere but in that square |
+//! | `<costmap>/clear_around_pose_<costmap>` | nav2_msgs/srv/ClearCostmapAroundPose | ... in a `reset_distance` square round the pose |
 //!
 //! The clearing services are costmap_2d's names (its ClearCostmapService), and clear what
-//! costmap_2d clears: the clearable layers (obstacle, voxel and range layers, which mark what
-//! the sensors saw). The node's grid has none: it is the map, its inflation and the keepout
-//! filter, none of which costmap_2d clears either (its static layer, inflation layer and
-//! costmap filters are not clearable). So each request is answered at once, leaves the grid as
-//! it is, and says so in the log. With `costmap_topic` the global costmap is another node's,
-//! which serves its own services; the node then serves only the local costmap's.
+//! costmap_2d clears: the clearable layers, here the obstacle layer (obstacle_layer.rs, what the
+//! scans marked), with costmap_2d's regions (`CostmapLayer::clearArea`); the map, its inflation
+//! and the keepout filter stay, as costmap_2d's static layer, inflation layer and costmap
+//! filters are not clearable. The grid is made again at once, so the next plan (a recovery's)
+//! no longer sees what was cleared, until a scan sees it again. The local costmap is a window of
+//! the global grid, so clearing either clears the one layer. With `costmap_topic` the global
+//! costmap is another node's, which serves its own services; the node then serves only the
+//! local costmap's.
 
 use crate::outputs::Outputs;
 use crate::state::Shared;
 use log::{info, warn};
+use patrol_msgs::geometry_msgs::PoseStamped;
 use patrol_msgs::nav2_msgs::{
     ClearCostmapAroundPoseRequest, ClearCostmapAroundRobotRequest, ClearCostmapExceptRegionRequest,
     ClearCostmapResponse, ClearEntireCostmapRequest, Costmap, GetCostmapRequest,
@@ -60,10 +63,10 @@ pub fn serve(
             which,
             server,
         ));
-        clear_service::<ClearEntireCostmapRequest>(node, naming, tasks, which)?;
-        clear_service::<ClearCostmapAroundRobotRequest>(node, naming, tasks, which)?;
-        clear_service::<ClearCostmapExceptRegionRequest>(node, naming, tasks, which)?;
-        clear_service::<ClearCostmapAroundPoseRequest>(node, naming, tasks, which)?;
+        clear_service::<ClearEntireCostmapRequest>(node, naming, tasks, shared, which)?;
+        clear_service::<ClearCostmapAroundRobotRequest>(node, naming, tasks, shared, which)?;
+        clear_service::<ClearCostmapExceptRegionRequest>(node, naming, tasks, shared, which)?;
+        clear_service::<ClearCostmapAroundPoseRequest>(node, naming, tasks, shared, which)?;
     }
     Ok(())
 }
@@ -73,11 +76,12 @@ fn clear_service<R: ClearRequest>(
     node: &mut ros2_client::Node,
     naming: &Naming,
     tasks: &mut tokio::task::JoinSet<()>,
+    shared: &Arc<Shared>,
     which: Which,
 ) -> anyhow::Result<()> {
     let name = format!("{0}/{1}{0}", which.name(), R::PREFIX);
     let server = ServiceServer::<R, _>::new(node, naming, &name, "nav2_msgs", R::TYPE)?;
-    tasks.spawn(serve_clear(which, server));
+    tasks.spawn(serve_clear(shared.clone(), which, server));
     Ok(())
 }
 
@@ -156,7 +160,7 @@ pub async fn serve_get_costmap(
     }
 }
 
-/// One of costmap_2d's clearing requests: its service, and what it asks in words.
+/// One of costmap_2d's clearing requests: its service, what it asks in words, and where.
 pub trait ClearRequest: Message + Clone + Send + Sync + 'static {
     /// The service's name before the costmap's, as costmap_2d names it (`clear_entirely_`).
     const PREFIX: &'static str;
@@ -164,6 +168,17 @@ pub trait ClearRequest: Message + Clone + Send + Sync + 'static {
     const TYPE: &'static str;
     /// What was asked, in words.
     fn asked(&self) -> String;
+    /// Where to clear.
+    fn region(&self) -> Region;
+}
+
+/// Where a clearing request clears.
+pub enum Region {
+    Everything,
+    /// A square of this side (m) round the robot (`true`), or all but it (`false`).
+    RoundRobot(f64, bool),
+    /// A square of this side (m) round the pose.
+    RoundPose(Box<PoseStamped>, f64),
 }
 
 impl ClearRequest for ClearEntireCostmapRequest {
@@ -172,6 +187,9 @@ impl ClearRequest for ClearEntireCostmapRequest {
     fn asked(&self) -> String {
         "clear everything".into()
     }
+    fn region(&self) -> Region {
+        Region::Everything
+    }
 }
 
 impl ClearRequest for ClearCostmapAroundRobotRequest {
@@ -179,6 +197,9 @@ impl ClearRequest for ClearCostmapAroundRobotRequest {
     const TYPE: &'static str = "ClearCostmapAroundRobot";
     fn asked(&self) -> String {
         format!("clear a {} m square round the robot", self.reset_distance)
+    }
+    fn region(&self) -> Region {
+        Region::RoundRobot(f64::from(self.reset_distance), true)
     }
 }
 
@@ -190,6 +211,9 @@ impl ClearRequest for ClearCostmapExceptRegionRequest {
             "clear all but a {} m square round the robot",
             self.reset_distance
         )
+    }
+    fn region(&self) -> Region {
+        Region::RoundRobot(f64::from(self.reset_distance), false)
     }
 }
 
@@ -203,23 +227,78 @@ impl ClearRequest for ClearCostmapAroundPoseRequest {
             self.reset_distance, p.x, p.y, self.pose.header.frame_id
         )
     }
+    fn region(&self) -> Region {
+        Region::RoundPose(Box::new(self.pose.clone()), self.reset_distance)
+    }
 }
 
-/// A clearing service of costmap `which` (see the module's comment): answered at once, the
-/// grid left as it is (nothing in it is clearable), the request and why logged.
+/// A clearing service of costmap `which` (see the module's comment): the obstacle layer cleared
+/// where the request says and laid on the grid at once; answered in any case (the service has
+/// no error to answer with), what was done or why nothing was logged.
 pub async fn serve_clear<R: ClearRequest>(
+    s: Arc<Shared>,
     which: Which,
     server: ServiceServer<R, ClearCostmapResponse>,
 ) {
     loop {
         let (id, request) = server.next_request().await;
-        info!(
-            "{}: asked to {}: nothing to clear in the {} (the node's costmap is the map, \
-             its inflation and the keepout filter, none of them a layer costmap_2d clears)",
-            server.name(),
-            request.asked(),
-            which.name()
-        );
+        let name = server.name();
+        match clear(&s, request.region()).await {
+            Ok(Some(marked)) => info!(
+                "{name}: asked to {}: done in the {}'s obstacle layer, {marked} cells seen \
+                 occupied left",
+                request.asked(),
+                which.name()
+            ),
+            Ok(None) => info!(
+                "{name}: asked to {}: nothing seen there to clear (the map, its inflation and \
+                 the keepout filter are not layers costmap_2d clears)",
+                request.asked()
+            ),
+            Err(why) => warn!("{name}: asked to {}: not done: {why}", request.asked()),
+        }
         server.respond(id, ClearCostmapResponse::default()).await;
     }
+}
+
+/// Clears `region` of the obstacle layer; returns how many cells stay marked, `None` when
+/// nothing was cleared.
+async fn clear(s: &Shared, region: Region) -> Result<Option<usize>, String> {
+    let side_ok = |side: f64| {
+        if side.is_finite() && side >= 0.0 {
+            Ok(side)
+        } else {
+            Err(format!("reset_distance {side} is not a finite length"))
+        }
+    };
+    // Where, before the layer is locked: a pose may wait for its transform.
+    let square = match region {
+        Region::Everything => None,
+        Region::RoundRobot(side, inside) => {
+            let side = side_ok(side)?;
+            let robot = s.robot_pose().await.ok_or("the robot has no pose yet")?;
+            Some((robot.position(), side, inside))
+        }
+        Region::RoundPose(pose, side) => {
+            let side = side_ok(side)?;
+            let at = s.pose_in_global(&pose).await.map_err(|f| f.message)?;
+            Some((at.position(), side, true))
+        }
+    };
+    let left = {
+        let mut obstacles = s.obstacles.lock().expect("lock");
+        let (layer, changed) = &mut *obstacles;
+        let Some(layer) = layer.as_mut() else {
+            return Ok(None);
+        };
+        let cleared = match square {
+            None => layer.clear_all(),
+            Some((center, side, inside)) => layer.clear_square(center, side, inside),
+        };
+        *changed |= cleared;
+        cleared.then(|| layer.marked_count())
+    };
+    // Laid now (unless the scans' task just did), not at the layer's next update.
+    s.lay_obstacles();
+    Ok(left)
 }

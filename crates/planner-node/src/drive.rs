@@ -6,8 +6,8 @@
 //! robot stops), the robot makes no progress (`progress_checker`, as controller_server's), or
 //! the time to drive it runs out. A failure a recovery may help (no progress or out of time,
 //! no valid path, a planner timeout or unknown error) is tried again after a recovery, as
-//! Nav2's trees retry (`recovery`): the robot stops, spins, waits or backs up (behaviors.rs, in
-//! turn), and the drive plans again from where it is. `navigate_to_pose` is one drive; `navigate_through_poses` one through all its poses,
+//! Nav2's trees retry (`recovery`): the robot stops, forgets what the scans marked, spins,
+//! waits or backs up (behaviors.rs; one in turn), and the drive plans again from where it is. `navigate_to_pose` is one drive; `navigate_through_poses` one through all its poses,
 //! as Nav2's through-poses tree plans one path through them and drives it without stopping at
 //! each (a replan or a retry goes through the poses not yet passed); `follow_waypoints` one per
 //! waypoint, stopping at each.
@@ -308,9 +308,18 @@ async fn recover_topic_goal(s: Arc<Shared>, o: Outputs, goals: Vec<Pose2>, mine:
 /// The recovery behaviours of one drive, taken in turn (Nav2's `RoundRobin`): each recovery
 /// starts with the one after the last that ran.
 struct RoundRobin {
-    behaviors: Vec<Behavior>,
+    behaviors: Vec<Step>,
     allowance: Duration,
     next: usize,
+}
+
+/// One recovery behaviour of the round robin.
+#[derive(Clone, Copy, Debug)]
+enum Step {
+    /// Forget what the scans marked (the tree's ClearingActions): always succeeds.
+    Clear,
+    /// A motion of the behavior server's.
+    Move(Behavior),
 }
 
 /// How one recovery went.
@@ -329,12 +338,15 @@ impl RoundRobin {
             .behaviors
             .iter()
             .map(|b| match b {
-                RecoveryBehavior::Spin => Behavior::Spin(r.spin_dist),
-                RecoveryBehavior::Wait => Behavior::Wait(Duration::from_secs_f64(r.wait_duration)),
-                RecoveryBehavior::Backup => Behavior::Drive {
+                RecoveryBehavior::Clear => Step::Clear,
+                RecoveryBehavior::Spin => Step::Move(Behavior::Spin(r.spin_dist)),
+                RecoveryBehavior::Wait => {
+                    Step::Move(Behavior::Wait(Duration::from_secs_f64(r.wait_duration)))
+                }
+                RecoveryBehavior::Backup => Step::Move(Behavior::Drive {
                     distance: -r.backup_dist,
                     speed: r.backup_speed,
-                },
+                }),
             })
             .collect();
         Self {
@@ -358,8 +370,13 @@ impl RoundRobin {
     {
         let mut failures = Vec::new();
         for _ in 0..self.behaviors.len() {
-            let behavior = self.behaviors[self.next];
+            let step = self.behaviors[self.next];
             self.next = (self.next + 1) % self.behaviors.len();
+            let Step::Move(behavior) = step else {
+                let left = s.forget_obstacles();
+                info!("drive for goal {mine}: recovery: the obstacles seen cleared ({left} cells were marked)");
+                return Recovered::Yes;
+            };
             info!("drive for goal {mine}: recovery: {behavior}");
             let allowance = Some(self.allowance);
             match behaviors::run(s, behavior, allowance, mine, stop, &mut progress).await {

@@ -27,8 +27,8 @@ use std::time::Duration;
 /// so no message can make the layer trace without end.
 pub const MAX_RAYS: usize = 20_000;
 
-/// Takes the scans on `sub` into the layer, and hands the layer to the grid when it changed, at
-/// most at `update_frequency`.
+/// Takes the scans on `sub` into the layer ([`Shared::obstacles`]), and lays the layer on the
+/// grid when it changed, at most at `update_frequency` ([`Shared::lay_obstacles`]).
 pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
     let params = s.params.obstacle_layer.clone();
     let limits = RangeLimits {
@@ -40,8 +40,6 @@ pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
     };
     let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / params.update_frequency));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut layer: Option<ObstacleLayer> = None;
-    let mut changed = false;
     let mut faults = HashSet::new();
     loop {
         tokio::select! {
@@ -49,29 +47,19 @@ pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
                 let Ok((scan, _)) = taken else {
                     continue;
                 };
-                match observe(&s, &mut layer, &scan, &limits).await {
-                    Ok(c) => changed |= c,
-                    Err(Fault { kind, why }) => {
-                        // One line per kind of fault, not one per scan at the scanner's rate.
-                        if faults.insert(kind) {
-                            warn!("{}: a scan skipped: {why}", params.topic);
-                        } else {
-                            debug!("{}: a scan skipped: {why}", params.topic);
-                        }
+                if let Err(Fault { kind, why }) = observe(&s, &scan, &limits).await {
+                    // One line per kind of fault, not one per scan at the scanner's rate.
+                    if faults.insert(kind) {
+                        warn!("{}: a scan skipped: {why}", params.topic);
+                    } else {
+                        debug!("{}: a scan skipped: {why}", params.topic);
                     }
                 }
             }
             _ = tick.tick() => {
-                if !changed {
-                    continue;
+                if let Some(marked) = s.lay_obstacles() {
+                    debug!("{}: {marked} cells seen occupied", params.topic);
                 }
-                changed = false;
-                let seen = layer.clone().map(Arc::new);
-                if let Some(l) = &seen {
-                    debug!("{}: {} cells seen occupied", params.topic, l.marked_count());
-                }
-                *s.seen_obstacles.write().expect("lock") = seen;
-                s.settings_changed.notify_one();
             }
         }
     }
@@ -83,15 +71,10 @@ struct Fault {
     why: String,
 }
 
-/// One scan into the layer; returns whether it changed the layer. The layer is made afresh on
-/// the current map's grid when the map changed (a new floor: what was seen on the old one is
-/// no longer where it was). Nothing happens before the first map, or on a costmap taken as it is.
-async fn observe(
-    s: &Shared,
-    layer: &mut Option<ObstacleLayer>,
-    scan: &LaserScan,
-    limits: &RangeLimits,
-) -> Result<bool, Fault> {
+/// One scan into the layer. The layer is made afresh on the current map's grid when the map
+/// changed (a new floor: what was seen on the old one is no longer where it was). Nothing
+/// happens before the first map, or on a costmap taken as it is.
+async fn observe(s: &Shared, scan: &LaserScan, limits: &RangeLimits) -> Result<(), Fault> {
     let numbers = [
         scan.angle_min,
         scan.angle_increment,
@@ -122,14 +105,8 @@ async fn observe(
         .filter(|m| !m.is_costmap())
         .map(|m| *m.source_info())
     else {
-        return Ok(false);
+        return Ok(());
     };
-    if layer.as_ref().is_none_or(|l| *l.info() != info) {
-        if layer.is_some() {
-            info!("a new map: the obstacles seen on the last one are forgotten");
-        }
-        *layer = Some(ObstacleLayer::new(info));
-    }
     let sensor = s
         .frame_in_global(
             &scan.header.frame_id,
@@ -152,18 +129,31 @@ async fn observe(
             Point2::new(p.x, p.y)
         },
     );
-    let Some(layer) = layer.as_mut() else {
-        return Ok(false);
-    };
-    let mut changed = layer.observe(&rays);
-    if s.params.obstacle_layer.footprint_clearing_enabled {
-        if let Some(robot) = s
-            .fresh_odom()
-            .or_else(|| s.start.read().expect("lock").map(|(p, _)| p))
-        {
-            let radius = s.live.read().expect("lock").config.costmap.robot_radius;
-            changed |= layer.clear_disc(robot.position(), radius);
+    let robot = s
+        .params
+        .obstacle_layer
+        .footprint_clearing_enabled
+        .then(|| {
+            s.fresh_odom()
+                .or_else(|| s.start.read().expect("lock").map(|(p, _)| p))
+        })
+        .flatten();
+    let radius = s.live.read().expect("lock").config.costmap.robot_radius;
+    let mut obstacles = s.obstacles.lock().expect("lock");
+    let (layer, changed) = &mut *obstacles;
+    if layer.as_ref().is_none_or(|l| *l.info() != info) {
+        if layer.is_some() {
+            info!("a new map: the obstacles seen on the last one are forgotten");
         }
+        *layer = Some(ObstacleLayer::new(info));
+        *changed = true;
     }
-    Ok(changed)
+    let Some(layer) = layer.as_mut() else {
+        return Ok(());
+    };
+    *changed |= layer.observe(&rays);
+    if let Some(robot) = robot {
+        *changed |= layer.clear_disc(robot.position(), radius);
+    }
+    Ok(())
 }

@@ -208,8 +208,10 @@ pub struct Shared {
     /// The keepout mask as last received on `keepout_mask_topic` (Nav2's keepout filter mask,
     /// in the global frame), laid over every grid made from now on.
     pub keepout: RwLock<Option<Arc<GridMap>>>,
-    /// The obstacles the scans have shown, as last laid on the grid (obstacle_layer.rs, at the
-    /// layer's `update_frequency`).
+    /// The obstacle layer as the scans and the clearing services leave it (obstacle_layer.rs),
+    /// and whether it changed since it was last laid on the grid.
+    pub obstacles: Mutex<(Option<ObstacleLayer>, bool)>,
+    /// The obstacles as last laid on the grid ([`Shared::lay_obstacles`]).
     pub seen_obstacles: RwLock<Option<Arc<ObstacleLayer>>>,
     /// Held while a grid is made again for changed costmap parameters, so that two requests
     /// arriving together do not both make it.
@@ -351,6 +353,7 @@ impl Shared {
             live: RwLock::new(live),
             map: RwLock::new(None),
             keepout: RwLock::new(None),
+            obstacles: Mutex::new((None, false)),
             seen_obstacles: RwLock::new(None),
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
@@ -436,6 +439,40 @@ impl Shared {
                 Some(map)
             }
         }
+    }
+
+    /// Lays the obstacle layer on the grid, if it changed since it last was: the grid is made
+    /// again from it at once ([`Shared::settings_changed`]). Returns how many cells are marked.
+    pub fn lay_obstacles(&self) -> Option<usize> {
+        let seen = {
+            let mut obstacles = self.obstacles.lock().expect("lock");
+            let (layer, changed) = &mut *obstacles;
+            if !std::mem::take(changed) {
+                return None;
+            }
+            layer.clone().map(Arc::new)
+        };
+        let marked = seen.as_ref().map_or(0, |l| l.marked_count());
+        *self.seen_obstacles.write().expect("lock") = seen;
+        self.settings_changed.notify_one();
+        Some(marked)
+    }
+
+    /// Forgets every obstacle the scans marked and lays the empty layer on the grid at once (a
+    /// recovery's clearing, as Nav2's trees clear both costmaps). Returns how many cells were
+    /// marked.
+    pub fn forget_obstacles(&self) -> usize {
+        let had = {
+            let mut obstacles = self.obstacles.lock().expect("lock");
+            let (layer, changed) = &mut *obstacles;
+            let had = layer.as_ref().map_or(0, |l| l.marked_count());
+            if let Some(layer) = layer.as_mut() {
+                *changed |= layer.clear_all();
+            }
+            had
+        };
+        self.lay_obstacles();
+        had
     }
 
     /// The limits the follower drives a plan under: the chassis' (`twist_limits`), the top speed

@@ -164,6 +164,44 @@ impl ObstacleLayer {
         changed
     }
 
+    /// Forgets everything seen (costmap_2d's ClearEntireCostmap on a clearable layer).
+    /// Returns whether anything was marked.
+    pub fn clear_all(&mut self) -> bool {
+        let had = self.count > 0;
+        self.marked.fill(false);
+        self.count = 0;
+        had
+    }
+
+    /// Clears the cells strictly inside the axis-aligned square of side `side` (m) centred on
+    /// `center` (`inside`), or every cell but those (`!inside`), as costmap_2d's
+    /// `CostmapLayer::clearArea` clears a layer for the ClearCostmapAroundRobot and
+    /// ClearCostmapExceptRegion services. Returns whether any cell changed.
+    pub fn clear_square(&mut self, center: Point2, side: f64, inside: bool) -> bool {
+        let half = side / 2.0;
+        let corner = |dx: f64, dy: f64| {
+            let g = self
+                .info
+                .world_to_grid(Point2::new(center.x + dx, center.y + dy));
+            (g.x.floor(), g.y.floor())
+        };
+        let (x0, y0) = corner(-half, -half);
+        let (x1, y1) = corner(half, half);
+        let mut changed = false;
+        for i in 0..self.marked.len() {
+            if !self.marked[i] {
+                continue;
+            }
+            let c = self.info.cell_at(i);
+            let (x, y) = (f64::from(c.x), f64::from(c.y));
+            let within = x > x0 && x < x1 && y > y0 && y < y1;
+            if within == inside {
+                changed |= self.set(c, false);
+            }
+        }
+        changed
+    }
+
     /// Marks or clears one cell; returns whether it changed.
     fn set(&mut self, c: Cell, on: bool) -> bool {
         let slot = &mut self.marked[self.info.index(c)];
@@ -332,6 +370,35 @@ mod tests {
             !layer.clear_disc(Point2::new(-5.0, 1.05), 0.3),
             "off the map"
         );
+    }
+
+    /// The clearing services' regions, as costmap_2d's clearArea takes them: the cells strictly
+    /// between the square's corner cells, or all but those; everything.
+    #[test]
+    fn squares_and_everything_are_cleared_as_costmap_2d_clears_them() {
+        let full = || {
+            let mut layer = ObstacleLayer::new(info());
+            for x in 0..40 {
+                layer.set(Cell::new(x, 10), true);
+            }
+            layer
+        };
+        let kept = |layer: &ObstacleLayer| -> Vec<i32> {
+            (0..40)
+                .filter(|&x| layer.is_marked(Cell::new(x, 10)))
+                .collect()
+        };
+        // A 1 m square round (2.0, 1.05): corners in cells 15 and 25, cleared 16..=24.
+        let mut around = full();
+        assert!(around.clear_square(Point2::new(2.0, 1.05), 1.0, true));
+        assert_eq!(kept(&around), (0..16).chain(25..40).collect::<Vec<_>>());
+        let mut except = full();
+        assert!(except.clear_square(Point2::new(2.0, 1.05), 1.0, false));
+        assert_eq!(kept(&except), (16..25).collect::<Vec<_>>());
+        assert_eq!(except.marked_count(), 9);
+        assert!(except.clear_all());
+        assert_eq!(except.marked_count(), 0);
+        assert!(!except.clear_all());
     }
 
     /// The overlay makes marked cells obstacles and leaves the rest of the map as it was;
