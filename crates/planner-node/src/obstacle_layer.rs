@@ -14,10 +14,11 @@
 
 use crate::state::Shared;
 use log::{debug, info, warn};
-use nalgebra::Point3;
+use nalgebra::{Isometry3, Point3};
 use patrol_msgs::sensor_msgs::LaserScan;
 use planner_core::geometry::Point2;
 use planner_core::grid::obstacle_layer::{scan_rays, ObstacleLayer, RangeLimits};
+use planner_core::grid::MapInfo;
 use ros2_client::Subscription;
 use std::collections::HashSet;
 use std::sync::Arc;
@@ -47,7 +48,7 @@ pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
                 let Ok((scan, _)) = taken else {
                     continue;
                 };
-                if let Err(Fault { kind, why }) = observe(&s, &scan, &limits).await {
+                if let Err(Fault { kind, why }) = observe(&s, scan, limits).await {
                     // One line per kind of fault, not one per scan at the scanner's rate.
                     if faults.insert(kind) {
                         warn!("{}: a scan skipped: {why}", params.topic);
@@ -73,8 +74,11 @@ struct Fault {
 
 /// One scan into the layer. The layer is made afresh on the current map's grid when the map
 /// changed (a new floor: what was seen on the old one is no longer where it was). Nothing
-/// happens before the first map, or on a costmap taken as it is.
-async fn observe(s: &Shared, scan: &LaserScan, limits: &RangeLimits) -> Result<(), Fault> {
+/// happens before the first map, or on a costmap taken as it is. The tracing runs off the async
+/// threads: its work grows with the rays and the raytrace range in cells (bounded by
+/// [`MAX_RAYS`] and the validated `raytrace_max_range`, yet tens of milliseconds for a long
+/// range on a fine map).
+async fn observe(s: &Arc<Shared>, scan: LaserScan, limits: RangeLimits) -> Result<(), Fault> {
     let numbers = [
         scan.angle_min,
         scan.angle_increment,
@@ -117,6 +121,24 @@ async fn observe(s: &Shared, scan: &LaserScan, limits: &RangeLimits) -> Result<(
             kind: "frame",
             why: f.message,
         })?;
+    let s = s.clone();
+    tokio::task::spawn_blocking(move || trace(&s, &scan, &limits, &sensor, info))
+        .await
+        .map_err(|e| Fault {
+            kind: "task",
+            why: e.to_string(),
+        })
+}
+
+/// [`observe`]'s tracing: the scan's rays from `sensor` (its pose in the global frame) into
+/// the layer on the map's grid `info`, then the robot's footprint cleared.
+fn trace(
+    s: &Shared,
+    scan: &LaserScan,
+    limits: &RangeLimits,
+    sensor: &Isometry3<f64>,
+    info: MapInfo,
+) {
     let rays = scan_rays(
         &scan.ranges,
         f64::from(scan.angle_min),
@@ -149,11 +171,10 @@ async fn observe(s: &Shared, scan: &LaserScan, limits: &RangeLimits) -> Result<(
         *changed = true;
     }
     let Some(layer) = layer.as_mut() else {
-        return Ok(());
+        return;
     };
     *changed |= layer.observe(&rays);
     if let Some(robot) = robot {
         *changed |= layer.clear_disc(robot.position(), radius);
     }
-    Ok(())
 }
