@@ -5,7 +5,9 @@ walls are; a later scan whose rays pass through where the block was clears it, a
 straight again. Returns beyond obstacle_max_range (2.5 m) mark nothing; a scan with numbers that
 are not finite is skipped and the node goes on. costmap_2d's clearing services clear what the
 scans marked, in their regions (a square round the robot, all but it), at once; so does a
-recovery, the first of Nav2's round robin."""
+recovery, the first of Nav2's round robin. A depth camera's sensor_msgs/PointCloud2 works the
+same way, its floor and ceiling dropped by height."""
+import contextlib
 import math
 
 import numpy as np
@@ -14,7 +16,7 @@ import rclpy
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.srv import GetPlan
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import LaserScan
+from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from tf2_msgs.msg import TFMessage
 
 from conftest import ROOT, Ros, call_service, domain_id, initial_pose, start_node, stamped, stop_binary
@@ -76,12 +78,14 @@ class Laser:
         self.pub.publish(m)
 
 
-@pytest.fixture
-def rig(tmp_path):
+@contextlib.contextmanager
+def room(tmp_path, layer):
+    """The node on the empty room, its obstacle layer set by `layer` (a YAML flow mapping), the
+    robot at START."""
     domain = domain_id(76)  # away from the `ros` fixture's node and the other modules'
     params = tmp_path / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n'
-                      "    obstacle_layer: {update_frequency: 5.0}\n")
+                      f"    obstacle_layer: {layer}\n")
     proc = start_node(domain, params, "patrol_planner_obstacle_layer_test.log")
     ros = Ros(domain, context=rclpy.Context())
     try:
@@ -89,10 +93,16 @@ def rig(tmp_path):
         ros.wait_matched(ros.initial_pub, "/initialpose")
         ros.map_pub.publish(grid_msg(np.zeros((30, 60), dtype=np.int8), (0.0, 0.0), 0.1))
         ros.initial_pub.publish(initial_pose(*START))
-        yield ros, Laser(ros)
+        yield ros
     finally:
         ros.close()
         stop_binary(proc)
+
+
+@pytest.fixture
+def rig(tmp_path):
+    with room(tmp_path, "{update_frequency: 5.0}") as ros:
+        yield ros, Laser(ros)
 
 
 def plan(ros):
@@ -176,3 +186,55 @@ def test_a_recovery_clears_what_the_scans_marked(rig):
     assert (end.x, end.y) == pytest.approx(GOAL)
     log = (ROOT / "target" / "patrol_planner_obstacle_layer_test.log").read_text()
     assert "recovery: the obstacles seen cleared" in log, log[-2000:]
+
+
+def test_a_point_cloud_marks_what_lies_between_the_floor_and_the_ceiling(tmp_path):
+    """A depth camera (`camera`, 0.5 m up on the robot) sees the block's face as points from
+    0.1 m to 1.0 m high, a ceiling 2.3 m up across the whole room 0.6 m ahead (within
+    obstacle_max_range: only max_obstacle_height, 2 m, keeps it from closing the room) and the
+    floor up to the block, 2 cm below the robot's plane (only min_obstacle_height, 0, keeps it
+    off the straight route): the plan goes round the block. Points far beyond it clear it
+    (raytraced on the plane), and the plan goes straight."""
+    with room(tmp_path, "{update_frequency: 5.0, data_type: PointCloud2, topic: /camera/points}") as ros:
+        pub = ros.node.create_publisher(PointCloud2, "/camera/points", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
+        static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
+            depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        for p, what in [(pub, "/camera/points"), (static, "/tf_static")]:
+            ros.wait_matched(p, what)
+        camera = (LASER_X, START[1], 0.5)  # in the map: 0.1 m ahead of the robot, 0.5 m up
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = "base_link", "camera"
+        t.transform.translation.x, t.transform.translation.z = 0.1, 0.5
+        t.transform.rotation.w = 1.0
+        static.publish(TFMessage(transforms=[t]))
+        steps = np.linspace(0.0, 1.0, 21)
+        block = [(BLOCK_X[0], BLOCK_Y[0] + (BLOCK_Y[1] - BLOCK_Y[0]) * a, 0.1 + 0.9 * b) for a in steps for b in steps]
+        ceiling = [(1.2, 3.0 * a, 2.3) for a in steps]  # 2.4 m from the camera at most
+        # The floor as a depth camera sees it, a little below the robot's plane (its noise).
+        floor = [(LASER_X + 2.0 * a, START[1], -0.02) for a in steps[1:]]
+        # Far beyond the block, spread so that the rays to them cross all of it.
+        beyond = [(5.9, 0.2 + 2.6 * a, 0.5) for a in steps]
+        seen = {"points": block + ceiling + floor}
+
+        def publish():
+            m = PointCloud2()
+            m.header.stamp = ros.node.get_clock().now().to_msg()
+            m.header.frame_id = "camera"
+            in_camera = np.array(seen["points"], dtype="<f4") - np.array(camera, dtype="<f4")
+            m.height, m.width = 1, len(in_camera)
+            m.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
+            m.is_bigendian, m.point_step, m.row_step, m.is_dense = False, 12, 12 * len(in_camera), True
+            m.data = in_camera.tobytes()
+            pub.publish(m)
+
+        ros.node.create_timer(1.0 / RATE_HZ, publish)
+
+        def goes_round():
+            p = plan(ros)
+            return p if (swerve(p) or 0) > 0.5 else None
+
+        around = ros.spin_until(goes_round, 30, "a plan round the block the camera sees")
+        assert not crosses_block(around)
+        seen["points"] = beyond
+        ros.spin_until(lambda: (lambda p: swerve(p) is not None and swerve(p) < 0.05)(plan(ros)), 30,
+                       "a straight plan once the camera sees past where the block was")

@@ -254,7 +254,30 @@ pub mod sensor_msgs {
         pub ranges: Vec<f32>,
         pub intensities: Vec<f32>,
     }
-    messages!(LaserScan);
+    /// sensor_msgs/PointField: where one field lies in each point of a PointCloud2.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct PointField {
+        pub name: String,
+        pub offset: u32,
+        /// 1..8: INT8, UINT8, INT16, UINT16, INT32, UINT32, FLOAT32, FLOAT64.
+        pub datatype: u8,
+        pub count: u32,
+    }
+    /// sensor_msgs/PointCloud2: a depth camera's or a 3-D lidar's points, each `point_step`
+    /// bytes laid out by `fields`.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct PointCloud2 {
+        pub header: Header,
+        pub height: u32,
+        pub width: u32,
+        pub fields: Vec<PointField>,
+        pub is_bigendian: bool,
+        pub point_step: u32,
+        pub row_step: u32,
+        pub data: Vec<u8>,
+        pub is_dense: bool,
+    }
+    messages!(LaserScan, PointField, PointCloud2);
 }
 
 pub mod rosgraph_msgs {

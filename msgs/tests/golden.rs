@@ -190,6 +190,27 @@ fn every_message_matches_rclpy_byte_for_byte() {
         },
         g::LASER_SCAN,
     );
+    let field = |name: &str, offset| patrol_msgs::sensor_msgs::PointField {
+        name: name.into(),
+        offset,
+        datatype: 7,
+        count: 1,
+    };
+    check(
+        "PointCloud2",
+        patrol_msgs::sensor_msgs::PointCloud2 {
+            header: header_for("camera"),
+            height: 1,
+            width: 2,
+            fields: vec![field("x", 0), field("y", 4), field("z", 8)],
+            is_bigendian: false,
+            point_step: 12,
+            row_step: 24,
+            data: (0..24).collect(),
+            is_dense: true,
+        },
+        g::POINT_CLOUD2,
+    );
     check(
         "GetPlan request",
         GetPlanRequest {

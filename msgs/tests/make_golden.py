@@ -20,7 +20,7 @@ from nav2_msgs.action import (AssistedTeleop, BackUp, ComputePathThroughPoses, C
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid, LoadMap
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan
+from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from nav2_msgs.msg import Costmap, CostmapFilterInfo, CostmapMetaData, SpeedLimit
 
 
@@ -74,6 +74,12 @@ def messages():
     out["LASER_SCAN"] = LaserScan(header=header("laser"), angle_min=-1.5, angle_max=1.5, angle_increment=0.75,
                                   time_increment=0.001, scan_time=0.1, range_min=0.05, range_max=12.0,
                                   ranges=[1.0, 2.5, float("inf"), 0.25, 12.0], intensities=[])
+    out["POINT_CLOUD2"] = PointCloud2(header=header("camera"), height=1, width=2,
+                                      fields=[PointField(name="x", offset=0, datatype=7, count=1),
+                                              PointField(name="y", offset=4, datatype=7, count=1),
+                                              PointField(name="z", offset=8, datatype=7, count=1)],
+                                      is_bigendian=False, point_step=12, row_step=24,
+                                      data=bytes(range(24)), is_dense=True)
     out["GET_PLAN_REQUEST"] = GetPlan.Request(start=pose_stamped(0.5, 0.5), goal=pose_stamped(9.5, 3.5), tolerance=0.25)
     out["GET_PLAN_RESPONSE"] = GetPlan.Response(plan=Path(header=header(), poses=[pose_stamped(0.5, 0.5)]))
     st = DiagnosticStatus(level=b'\x02', name="patrol_planner: plan", message="GOAL_OCCUPIED", hardware_id="",

@@ -347,10 +347,10 @@ impl Default for LocalCostmapParams {
     }
 }
 
-/// Nav2's ObstacleLayer with one sensor_msgs/LaserScan source (costmap_2d's
-/// `observation_sources: scan` and its `scan:` block, whose key names these keep): each scan,
-/// placed through TF at its stamp, clears the cells its rays cross and marks the cells its
-/// returns fall in; the marks are laid on the map as obstacles and inflated with it, so plans
+/// Nav2's ObstacleLayer with one observation source, a sensor_msgs/LaserScan or PointCloud2
+/// topic (costmap_2d's `observation_sources: scan` and its `scan:` block, whose key names these
+/// keep): each reading, placed through TF at its stamp, clears the cells its rays cross and
+/// marks the cells its returns fall in; the marks are laid on the map as obstacles and inflated with it, so plans
 /// go round what the robot sees (an open cabinet door, a trolley left in an aisle) and a path
 /// being followed that a new obstacle blocks is planned again.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -358,9 +358,17 @@ impl Default for LocalCostmapParams {
 pub struct ObstacleLayerParams {
     /// Run the layer (when a scan arrives). Default true, as in Nav2's global costmap.
     pub enabled: bool,
-    /// The scans' topic (sensor_msgs/LaserScan, best effort as drivers publish them). Default
-    /// `scan` (in the node's namespace).
+    /// The readings' topic (best effort, as drivers publish them). Default `scan` (in the
+    /// node's namespace).
     pub topic: String,
+    /// What the topic carries (Nav2's `data_type`): `LaserScan` (default) or `PointCloud2` (a
+    /// depth camera, a 3-D lidar).
+    pub data_type: ObservationType,
+    /// A cloud's points lower or higher than these (m, their z in the global frame) are not
+    /// obstacles: the floor and the ceiling (Nav2's `min_obstacle_height` and
+    /// `max_obstacle_height`, 0 and 2). Scans are not filtered by height.
+    pub min_obstacle_height: f64,
+    pub max_obstacle_height: f64,
     /// Returns nearer than this are not marked (m). Default 0.
     pub obstacle_min_range: f64,
     /// Returns farther than this are not marked (m). Nav2's default 2.5.
@@ -381,11 +389,21 @@ pub struct ObstacleLayerParams {
     pub update_frequency: f64,
 }
 
+/// What an obstacle layer's topic carries (Nav2's `data_type`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ObservationType {
+    LaserScan,
+    PointCloud2,
+}
+
 impl Default for ObstacleLayerParams {
     fn default() -> Self {
         Self {
             enabled: true,
             topic: "scan".into(),
+            data_type: ObservationType::LaserScan,
+            min_obstacle_height: 0.0,
+            max_obstacle_height: 2.0,
             obstacle_min_range: 0.0,
             obstacle_max_range: 2.5,
             raytrace_min_range: 0.0,
@@ -536,9 +554,11 @@ impl NodeParams {
             || !within(o.raytrace_min_range, 0.0, o.raytrace_max_range)
             || !within(o.raytrace_max_range, 0.0, 50.0)
             || !within(o.update_frequency, 0.1, 20.0)
+            || !within(o.min_obstacle_height, -100.0, o.max_obstacle_height)
+            || !within(o.max_obstacle_height, -100.0, 100.0)
             || o.topic.is_empty()
         {
-            return Err("obstacle_layer: ranges from 0 to at most 50 m, each min at most its max, update_frequency within 0.1..=20 Hz, topic a topic".into());
+            return Err("obstacle_layer: ranges from 0 to at most 50 m, heights within +-100 m, each min at most its max, update_frequency within 0.1..=20 Hz, topic a topic".into());
         }
         let local = &self.local_costmap;
         if !within(local.width, 0.1, 100.0) || !within(local.height, 0.1, 100.0) {
@@ -1439,6 +1459,21 @@ mod tests {
         ] {
             assert_refused(name, block, key);
         }
+        // An obstacle layer on a depth camera's points; the heights at Nav2's defaults.
+        let cloud = write(
+            "cloud.yaml",
+            "    obstacle_layer: {data_type: PointCloud2, topic: /camera/points}\n",
+        );
+        let o = load_parameter_file(&cloud).unwrap().node.obstacle_layer;
+        assert_eq!(
+            (
+                o.data_type,
+                o.topic.as_str(),
+                o.min_obstacle_height,
+                o.max_obstacle_height
+            ),
+            (ObservationType::PointCloud2, "/camera/points", 0.0, 2.0)
+        );
         // Nav2's BinaryFilter block, as Nav2 writes it under the filter's name; its defaults
         // where not given.
         let binary = write(
@@ -1593,6 +1628,16 @@ mod tests {
             (
                 "raytrace_far.yaml",
                 "    obstacle_layer: {raytrace_max_range: 1.0e6}\n",
+                "obstacle_layer",
+            ),
+            (
+                "obstacle_heights.yaml",
+                "    obstacle_layer: {min_obstacle_height: 1.0, max_obstacle_height: 0.5}\n",
+                "obstacle_layer",
+            ),
+            (
+                "obstacle_type.yaml",
+                "    obstacle_layer: {data_type: Sonar}\n",
                 "obstacle_layer",
             ),
             (

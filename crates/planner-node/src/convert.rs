@@ -3,13 +3,14 @@
 //! the Nav2 result code names that `/diagnostics` reports.
 
 use crate::result::{Failure, ResultCode};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3 as Vector3n};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3 as Vector3n};
 use patrol_msgs::builtin_interfaces::{Duration, Time};
 use patrol_msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use patrol_msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion, Transform, Twist, Vector3};
 use patrol_msgs::map_msgs::OccupancyGridUpdate;
 use patrol_msgs::nav2_msgs::{Costmap, CostmapMetaData};
 use patrol_msgs::nav_msgs::{MapMetaData, OccupancyGrid, Path};
+use patrol_msgs::sensor_msgs::PointCloud2;
 use patrol_msgs::std_msgs::{ColorRGBA, Header};
 use patrol_msgs::visualization_msgs::{Marker, MarkerArray};
 use planner_core::geometry::{Point2, Pose2};
@@ -528,6 +529,88 @@ pub fn pareto_markers(plan: &Plan, header: Header) -> MarkerArray {
     MarkerArray { markers }
 }
 
+/// The most points a point cloud may carry: a 640 x 480 depth camera has 307 200, a 128-beam
+/// lidar about 260 000. A cloud beyond it is refused, so no message can make the obstacle
+/// layer trace without end.
+pub const MAX_CLOUD_POINTS: usize = 1_000_000;
+
+/// A sensor_msgs/PointCloud2's points (x, y, z in its header's frame), read as
+/// sensor_msgs' point_cloud2 iterator reads them: fields `x`, `y` and `z` of FLOAT32 (7) or
+/// FLOAT64 (8), at their offsets in each point of `point_step` bytes, rows `row_step` apart,
+/// in the cloud's byte order. Refused, with what is wrong: a missing or non-float coordinate
+/// field, a field or point that does not fit its step, data shorter than the cloud, more points
+/// than [`MAX_CLOUD_POINTS`]. Points that are not finite are kept (a dense cloud has none; the
+/// obstacle layer drops them).
+pub fn cloud_points(msg: &PointCloud2) -> Result<Vec<Point3<f64>>, String> {
+    let count = msg.width as usize * msg.height as usize;
+    if count > MAX_CLOUD_POINTS {
+        return Err(format!(
+            "{} x {} points, more than {MAX_CLOUD_POINTS}",
+            msg.width, msg.height
+        ));
+    }
+    let field = |name: &str| -> Result<(usize, usize), String> {
+        let f = msg
+            .fields
+            .iter()
+            .find(|f| f.name == name)
+            .ok_or_else(|| format!("no field `{name}`"))?;
+        let size = match f.datatype {
+            7 => 4,
+            8 => 8,
+            other => {
+                return Err(format!(
+                    "field `{name}` is of datatype {other}, not a float (7 or 8)"
+                ))
+            }
+        };
+        let end = f.offset as usize + size;
+        if end > msg.point_step as usize {
+            return Err(format!(
+                "field `{name}` ends at byte {end}, past point_step {}",
+                msg.point_step
+            ));
+        }
+        Ok((f.offset as usize, size))
+    };
+    let axes = [field("x")?, field("y")?, field("z")?];
+    let (step, row) = (msg.point_step as usize, msg.row_step as usize);
+    if msg.height > 0 && msg.width > 0 {
+        let needed = (msg.height as usize - 1)
+            .checked_mul(row)
+            .and_then(|n| n.checked_add(msg.width as usize * step))
+            .filter(|&n| n <= msg.data.len());
+        if needed.is_none() || (msg.height > 1 && row < msg.width as usize * step) {
+            return Err(format!(
+                "{} bytes of data for {} rows of {} points ({} bytes a point, {} a row)",
+                msg.data.len(),
+                msg.height,
+                msg.width,
+                step,
+                row
+            ));
+        }
+    }
+    let read = |at: usize, size: usize| -> f64 {
+        let b = &msg.data[at..at + size];
+        match (size, msg.is_bigendian) {
+            (4, false) => f64::from(f32::from_le_bytes(b.try_into().expect("4 bytes"))),
+            (4, true) => f64::from(f32::from_be_bytes(b.try_into().expect("4 bytes"))),
+            (_, false) => f64::from_le_bytes(b.try_into().expect("8 bytes")),
+            (_, true) => f64::from_be_bytes(b.try_into().expect("8 bytes")),
+        }
+    };
+    let mut points = Vec::with_capacity(count);
+    for r in 0..msg.height as usize {
+        for c in 0..msg.width as usize {
+            let base = r * row + c * step;
+            let [x, y, z] = axes.map(|(offset, size)| read(base + offset, size));
+            points.push(Point3::new(x, y, z));
+        }
+    }
+    Ok(points)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -544,6 +627,86 @@ mod tests {
                 orientation: q,
             },
         }
+    }
+
+    /// A cloud with x, y, z and an intensity in each 16-byte point, two rows of two with 4
+    /// padding bytes a row, in either byte order and float width; and the clouds that are
+    /// refused, each with what is wrong.
+    #[test]
+    fn point_clouds_are_read_at_their_offsets_and_refused_when_malformed() {
+        use patrol_msgs::sensor_msgs::{PointCloud2, PointField};
+        let field = |name: &str, offset, datatype| PointField {
+            name: name.into(),
+            offset,
+            datatype,
+            count: 1,
+        };
+        let points: [[f64; 3]; 4] = [
+            [1.0, 2.0, 3.0],
+            [-1.5, 0.25, 0.0],
+            [4.0, 5.0, 6.0],
+            [7.0, 8.0, 9.5],
+        ];
+        let cloud = |big: bool, wide: bool| {
+            let size = if wide { 8 } else { 4 };
+            let step = 4 * size;
+            let mut data = Vec::new();
+            for row in points.chunks(2) {
+                for p in row {
+                    for v in p.iter().chain([&42.0]) {
+                        let bytes: Vec<u8> = match (wide, big) {
+                            (false, false) => (*v as f32).to_le_bytes().to_vec(),
+                            (false, true) => (*v as f32).to_be_bytes().to_vec(),
+                            (true, false) => v.to_le_bytes().to_vec(),
+                            (true, true) => v.to_be_bytes().to_vec(),
+                        };
+                        data.extend(bytes);
+                    }
+                }
+                data.extend([0u8; 4]);
+            }
+            let datatype = if wide { 8 } else { 7 };
+            PointCloud2 {
+                height: 2,
+                width: 2,
+                // z before y, and the intensity first: offsets, not order, place them.
+                fields: vec![
+                    field("intensity", 3 * size as u32, datatype),
+                    field("x", 0, datatype),
+                    field("z", 2 * size as u32, datatype),
+                    field("y", size as u32, datatype),
+                ],
+                is_bigendian: big,
+                point_step: step as u32,
+                row_step: (2 * step + 4) as u32,
+                data,
+                ..Default::default()
+            }
+        };
+        for (big, wide) in [(false, false), (true, false), (false, true), (true, true)] {
+            let read = cloud_points(&cloud(big, wide)).unwrap();
+            let read: Vec<[f64; 3]> = read.iter().map(|p| [p.x, p.y, p.z]).collect();
+            assert_eq!(read, points, "big-endian {big}, 64-bit {wide}");
+        }
+        let refused = |c: PointCloud2, says: &str| {
+            let e = cloud_points(&c).unwrap_err();
+            assert!(e.contains(says), "{e}");
+        };
+        let mut no_z = cloud(false, false);
+        no_z.fields.retain(|f| f.name != "z");
+        refused(no_z, "no field `z`");
+        let mut bytes = cloud(false, false);
+        bytes.fields[1].datatype = 2;
+        refused(bytes, "datatype 2");
+        let mut past = cloud(false, false);
+        past.fields[2].offset = 14;
+        refused(past, "past point_step");
+        let mut short = cloud(false, false);
+        short.data.truncate(40);
+        refused(short, "bytes of data");
+        let mut huge = cloud(false, false);
+        huge.width = 1 << 20;
+        refused(huge, "more than");
     }
 
     /// /diagnostics carries what the planner said about the plan (here a moved start and a

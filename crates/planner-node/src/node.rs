@@ -13,7 +13,7 @@
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
-//! | in | `obstacle_layer.topic` (`scan`) | sensor_msgs/LaserScan | best effort, depth 5 (only with `obstacle_layer.enabled`, the default, and no `costmap_topic`: obstacle_layer.rs) |
+//! | in | `obstacle_layer.topic` (`scan`) | sensor_msgs/LaserScan or PointCloud2 (`obstacle_layer.data_type`) | best effort, depth 5 (only with `obstacle_layer.enabled`, the default, and no `costmap_topic`: obstacle_layer.rs) |
 //! | in | `/tf`, `/tf_static` | tf2_msgs/TFMessage | reliable, depth 100; `/tf_static` transient local (tf2's listener): the TF tree, `map -> odom`, and the odometry `odom -> base_link`, which wins over `/odom` |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
@@ -65,12 +65,12 @@ use patrol_msgs::nav2_msgs::{
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::rosgraph_msgs::Clock;
-use patrol_msgs::sensor_msgs::LaserScan;
+use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
 use patrol_msgs::std_msgs::{Bool, Empty};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
 use planner_core::params::ParamError;
-use planner_io::parameters::ParameterFile;
+use planner_io::parameters::{ObservationType, ParameterFile};
 use ros2_client::action::{ActionServerQosPolicies, AsyncActionServer};
 use ros2_client::{
     qos::{Durability, History},
@@ -543,15 +543,20 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     // The obstacle layer's scans, best effort as laser drivers publish them (sensor data QoS);
     // not on a costmap taken as it is, which has its own obstacle layer.
     let layer = &params.obstacle_layer;
-    let scan_sub = if layer.enabled && params.costmap_topic.is_empty() {
-        let t = topic(
-            &mut node,
-            &layer.topic,
-            "sensor_msgs",
-            "LaserScan",
-            &best_effort,
-        )?;
-        Some(node.create_subscription::<LaserScan>(&t, Some(best_effort))?)
+    let readings = if layer.enabled && params.costmap_topic.is_empty() {
+        let kind = match layer.data_type {
+            ObservationType::LaserScan => "LaserScan",
+            ObservationType::PointCloud2 => "PointCloud2",
+        };
+        let t = topic(&mut node, &layer.topic, "sensor_msgs", kind, &best_effort)?;
+        Some(match layer.data_type {
+            ObservationType::LaserScan => obstacle_layer::Readings::Scans(
+                node.create_subscription::<LaserScan>(&t, Some(best_effort))?,
+            ),
+            ObservationType::PointCloud2 => obstacle_layer::Readings::Clouds(
+                node.create_subscription::<PointCloud2>(&t, Some(best_effort))?,
+            ),
+        })
     } else {
         None
     };
@@ -821,8 +826,8 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         amcl_sub,
     ));
     tasks.spawn(inputs::receive_odometry(shared.clone(), odom_sub));
-    if let Some(sub) = scan_sub {
-        tasks.spawn(obstacle_layer::receive_scans(shared.clone(), sub));
+    if let Some(readings) = readings {
+        tasks.spawn(obstacle_layer::receive(shared.clone(), readings));
     }
     for (name, sub) in tf_subs {
         tasks.spawn(inputs::receive_transforms(shared.clone(), name, sub));

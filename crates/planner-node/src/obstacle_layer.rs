@@ -1,23 +1,26 @@
-//! The node's obstacle layer (`obstacle_layer`): laser scans in, the obstacles they show laid on
-//! the planning grid, as Nav2's global costmap runs its ObstacleLayer between the static map and
-//! the inflation.
+//! The node's obstacle layer (`obstacle_layer`): laser scans or point clouds in, the obstacles
+//! they show laid on the planning grid, as Nav2's global costmap runs its ObstacleLayer between
+//! the static map and the inflation.
 //!
-//! Each scan is placed in the global frame through TF at its stamp (the sensor's frame up to the
-//! robot, then the robot's pose), clears the cells its rays cross and marks those its returns
-//! fall in (planner_core's `ObstacleLayer`); the robot's own footprint is cleared. At the
+//! Each reading is placed in the global frame through TF at its stamp (the sensor's frame up to
+//! the robot, then the robot's pose), clears the cells its rays cross and marks those its
+//! returns fall in (planner_core's `ObstacleLayer`; a cloud's points outside the obstacle
+//! heights dropped first); the robot's own footprint is cleared. At the
 //! layer's `update_frequency` what changed is handed to the grid ([`Shared::seen_obstacles`]),
 //! which is made again, and the path being followed is checked against it as against a new
 //! map: an obstacle across it is planned round (`inputs::remake_grid_on_change`).
 //!
-//! A bad scan (numbers that are not finite, more rays than [`MAX_RAYS`], a frame TF cannot
-//! place) is logged once per kind of fault and skipped; the layer goes on.
+//! A bad reading (numbers that are not finite, more rays than [`MAX_RAYS`], a malformed cloud:
+//! `convert::cloud_points`, a frame TF cannot place) is logged once per kind of fault and
+//! skipped; the layer goes on.
 
 use crate::state::Shared;
 use log::{debug, info, warn};
 use nalgebra::{Isometry3, Point3};
-use patrol_msgs::sensor_msgs::LaserScan;
+use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
+use patrol_msgs::std_msgs::Header;
 use planner_core::geometry::Point2;
-use planner_core::grid::obstacle_layer::{scan_rays, ObstacleLayer, RangeLimits};
+use planner_core::grid::obstacle_layer::{cloud_rays, scan_rays, ObstacleLayer, RangeLimits, Ray};
 use planner_core::grid::MapInfo;
 use ros2_client::Subscription;
 use std::collections::HashSet;
@@ -25,12 +28,43 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// The most rays a scan may have: a 0.1-degree scanner has 3600. A scan beyond it is refused,
-/// so no message can make the layer trace without end.
+/// so no message can make the layer trace without end (a cloud's bound is
+/// `convert::MAX_CLOUD_POINTS`).
 pub const MAX_RAYS: usize = 20_000;
 
-/// Takes the scans on `sub` into the layer ([`Shared::obstacles`]), and lays the layer on the
-/// grid when it changed, at most at `update_frequency` ([`Shared::lay_obstacles`]).
-pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
+/// The layer's topic, of the type `obstacle_layer.data_type` names.
+pub enum Readings {
+    Scans(Subscription<LaserScan>),
+    Clouds(Subscription<PointCloud2>),
+}
+
+/// One message of [`Readings`].
+enum Reading {
+    Scan(LaserScan),
+    Cloud(PointCloud2),
+}
+
+impl Readings {
+    async fn next(&self) -> Option<Reading> {
+        match self {
+            Readings::Scans(sub) => sub.async_take().await.ok().map(|(m, _)| Reading::Scan(m)),
+            Readings::Clouds(sub) => sub.async_take().await.ok().map(|(m, _)| Reading::Cloud(m)),
+        }
+    }
+}
+
+impl Reading {
+    fn header(&self) -> &Header {
+        match self {
+            Reading::Scan(m) => &m.header,
+            Reading::Cloud(m) => &m.header,
+        }
+    }
+}
+
+/// Takes the readings into the layer ([`Shared::obstacles`]), and lays the layer on the grid
+/// when it changed, at most at `update_frequency` ([`Shared::lay_obstacles`]).
+pub async fn receive(s: Arc<Shared>, readings: Readings) {
     let params = s.params.obstacle_layer.clone();
     let limits = RangeLimits {
         obstacle_min_range: params.obstacle_min_range,
@@ -44,16 +78,16 @@ pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
     let mut faults = HashSet::new();
     loop {
         tokio::select! {
-            taken = sub.async_take() => {
-                let Ok((scan, _)) = taken else {
+            taken = readings.next() => {
+                let Some(reading) = taken else {
                     continue;
                 };
-                if let Err(Fault { kind, why }) = observe(&s, scan, limits).await {
-                    // One line per kind of fault, not one per scan at the scanner's rate.
+                if let Err(Fault { kind, why }) = observe(&s, reading, limits).await {
+                    // One line per kind of fault, not one per reading at the sensor's rate.
                     if faults.insert(kind) {
-                        warn!("{}: a scan skipped: {why}", params.topic);
+                        warn!("{}: a reading skipped: {why}", params.topic);
                     } else {
-                        debug!("{}: a scan skipped: {why}", params.topic);
+                        debug!("{}: a reading skipped: {why}", params.topic);
                     }
                 }
             }
@@ -66,41 +100,18 @@ pub async fn receive_scans(s: Arc<Shared>, sub: Subscription<LaserScan>) {
     }
 }
 
-/// Why a scan was skipped: its kind (logged once) and the details.
+/// Why a reading was skipped: its kind (logged once) and the details.
 struct Fault {
     kind: &'static str,
     why: String,
 }
 
-/// One scan into the layer. The layer is made afresh on the current map's grid when the map
+/// One reading into the layer. The layer is made afresh on the current map's grid when the map
 /// changed (a new floor: what was seen on the old one is no longer where it was). Nothing
-/// happens before the first map, or on a costmap taken as it is. The tracing runs off the async
-/// threads: its work grows with the rays and the raytrace range in cells (bounded by
-/// [`MAX_RAYS`] and the validated `raytrace_max_range`, yet tens of milliseconds for a long
-/// range on a fine map).
-async fn observe(s: &Arc<Shared>, scan: LaserScan, limits: RangeLimits) -> Result<(), Fault> {
-    let numbers = [
-        scan.angle_min,
-        scan.angle_increment,
-        scan.range_min,
-        scan.range_max,
-    ];
-    if numbers.iter().any(|v| !v.is_finite()) || scan.range_min < 0.0 {
-        return Err(Fault {
-            kind: "numbers",
-            why: format!(
-                "angle_min {}, angle_increment {}, range_min {}, range_max {}: each must be \
-                 finite, the ranges not negative",
-                scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max
-            ),
-        });
-    }
-    if scan.ranges.len() > MAX_RAYS {
-        return Err(Fault {
-            kind: "rays",
-            why: format!("{} rays, more than {MAX_RAYS}", scan.ranges.len()),
-        });
-    }
+/// happens before the first map, or on a costmap taken as it is. The reading is checked and
+/// traced off the async threads: a cloud of a million points, or a long raytrace range on a
+/// fine map, takes tens of milliseconds.
+async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Result<(), Fault> {
     let Some(info) = s
         .map
         .read()
@@ -111,46 +122,90 @@ async fn observe(s: &Arc<Shared>, scan: LaserScan, limits: RangeLimits) -> Resul
     else {
         return Ok(());
     };
+    let header = reading.header();
     let sensor = s
-        .frame_in_global(
-            &scan.header.frame_id,
-            crate::convert::seconds(&scan.header.stamp),
-        )
+        .frame_in_global(&header.frame_id, crate::convert::seconds(&header.stamp))
         .await
         .map_err(|f| Fault {
             kind: "frame",
             why: f.message,
         })?;
     let s = s.clone();
-    tokio::task::spawn_blocking(move || trace(&s, &scan, &limits, &sensor, info))
-        .await
-        .map_err(|e| Fault {
+    tokio::task::spawn_blocking(move || {
+        let rays = rays(&s, &reading, &limits, &sensor)?;
+        trace(&s, &rays, info);
+        Ok(())
+    })
+    .await
+    .unwrap_or_else(|e| {
+        Err(Fault {
             kind: "task",
             why: e.to_string(),
         })
+    })
 }
 
-/// [`observe`]'s tracing: the scan's rays from `sensor` (its pose in the global frame) into
-/// the layer on the map's grid `info`, then the robot's footprint cleared.
-fn trace(
+/// A reading's rays in the global frame, its sensor at `sensor` there; a malformed reading is
+/// a fault.
+fn rays(
     s: &Shared,
-    scan: &LaserScan,
+    reading: &Reading,
     limits: &RangeLimits,
     sensor: &Isometry3<f64>,
-    info: MapInfo,
-) {
-    let rays = scan_rays(
-        &scan.ranges,
-        f64::from(scan.angle_min),
-        f64::from(scan.angle_increment),
-        f64::from(scan.range_min),
-        f64::from(scan.range_max),
-        limits,
-        |x, y| {
-            let p = sensor * Point3::new(x, y, 0.0);
-            Point2::new(p.x, p.y)
-        },
-    );
+) -> Result<Vec<Ray>, Fault> {
+    match reading {
+        Reading::Scan(scan) => {
+            let numbers = [
+                scan.angle_min,
+                scan.angle_increment,
+                scan.range_min,
+                scan.range_max,
+            ];
+            if numbers.iter().any(|v| !v.is_finite()) || scan.range_min < 0.0 {
+                return Err(Fault {
+                    kind: "numbers",
+                    why: format!(
+                        "angle_min {}, angle_increment {}, range_min {}, range_max {}: each must \
+                         be finite, the ranges not negative",
+                        scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max
+                    ),
+                });
+            }
+            if scan.ranges.len() > MAX_RAYS {
+                return Err(Fault {
+                    kind: "rays",
+                    why: format!("{} rays, more than {MAX_RAYS}", scan.ranges.len()),
+                });
+            }
+            Ok(scan_rays(
+                &scan.ranges,
+                f64::from(scan.angle_min),
+                f64::from(scan.angle_increment),
+                f64::from(scan.range_min),
+                f64::from(scan.range_max),
+                limits,
+                |x, y| {
+                    let p = sensor * Point3::new(x, y, 0.0);
+                    Point2::new(p.x, p.y)
+                },
+            ))
+        }
+        Reading::Cloud(cloud) => {
+            let points =
+                crate::convert::cloud_points(cloud).map_err(|why| Fault { kind: "cloud", why })?;
+            let p = &s.params.obstacle_layer;
+            Ok(cloud_rays(
+                Point3::from(sensor.translation.vector),
+                points.into_iter().map(|q| sensor * q),
+                limits,
+                (p.min_obstacle_height, p.max_obstacle_height),
+            ))
+        }
+    }
+}
+
+/// `rays` into the layer on the map's grid `info`, then the robot's footprint cleared.
+fn trace(s: &Shared, rays: &[Ray], info: MapInfo) {
     let robot = s
         .params
         .obstacle_layer
@@ -173,7 +228,7 @@ fn trace(
     let Some(layer) = layer.as_mut() else {
         return;
     };
-    *changed |= layer.observe(&rays);
+    *changed |= layer.observe(rays);
     if let Some(robot) = robot {
         *changed |= layer.clear_disc(robot.position(), radius);
     }

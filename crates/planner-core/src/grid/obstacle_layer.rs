@@ -9,11 +9,12 @@
 //! costmap_2d's inflation layer inflates the obstacle layer's cells.
 //!
 //! Pure: the caller brings the sensor's rays already in the map frame ([`scan_rays`] makes them
-//! from a laser scan's ranges and the sensor's pose).
+//! from a laser scan's ranges and the sensor's pose, [`cloud_rays`] from a point cloud's points).
 
 use crate::geometry::{Cell, Point2};
 use crate::grid::map::{GridMap, MapInfo};
 use crate::grid::raycast::supercover;
+use nalgebra::Point3;
 
 /// How a scan's ranges are read: Nav2's ObstacleLayer observation source parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +81,47 @@ pub fn scan_rays(
         });
     }
     rays
+}
+
+/// The rays of a point cloud (sensor_msgs/PointCloud2 with its points already in the map
+/// frame) as costmap_2d's ObservationBuffer and ObstacleLayer read them: a point whose height
+/// (its z in the map frame) is outside `heights` is dropped, as `min_obstacle_height` and
+/// `max_obstacle_height` drop the floor and the ceiling; a kept point is marked when its
+/// distance from the sensor's `origin` (in three dimensions, as Nav2 measures it) is within
+/// `obstacle_min_range..obstacle_max_range`, and clears the cells on the plane from the sensor
+/// towards it, between `raytrace_min_range` and `raytrace_max_range`. Points that are not
+/// finite are dropped.
+pub fn cloud_rays(
+    origin: Point3<f64>,
+    points: impl IntoIterator<Item = Point3<f64>>,
+    limits: &RangeLimits,
+    heights: (f64, f64),
+) -> Vec<Ray> {
+    let flat = |p: &Point3<f64>| Point2::new(p.x, p.y);
+    let from = flat(&origin);
+    points
+        .into_iter()
+        .filter(|p| p.iter().all(|v| v.is_finite()) && (heights.0..=heights.1).contains(&p.z))
+        .map(|p| {
+            let d = (p - origin).norm();
+            let mark = d >= limits.obstacle_min_range && d < limits.obstacle_max_range;
+            let towards = flat(&p) - from;
+            let length = towards.norm();
+            let along = |t: f64| {
+                if length > 0.0 {
+                    from + towards * (t.min(length) / length)
+                } else {
+                    from
+                }
+            };
+            let clear_from = limits.raytrace_min_range.min(length);
+            Ray {
+                clear_from: along(clear_from),
+                clear_to: along(limits.raytrace_max_range.max(clear_from)),
+                mark: mark.then(|| flat(&p)),
+            }
+        })
+        .collect()
 }
 
 /// The cells a range sensor has seen occupied, on a map's grid.
@@ -330,6 +372,38 @@ mod tests {
         // whose cell is left as it is.
         assert_eq!(still, (0..15).chain(33..40).collect::<Vec<_>>());
         assert_eq!(layer.marked_count(), still.len());
+    }
+
+    /// A cloud's points are kept by height in the map frame, marked by their distance from the
+    /// sensor in three dimensions, and clear on the plane towards them up to the raytrace range.
+    #[test]
+    fn cloud_points_are_filtered_by_height_and_gated_by_range() {
+        let origin = Point3::new(0.55, 1.05, 0.5);
+        let points = [
+            Point3::new(2.05, 1.05, 0.3),  // a box on the floor, 1.5 m ahead: marked
+            Point3::new(2.05, 1.05, 2.5),  // the ceiling: dropped
+            Point3::new(2.05, 1.05, -0.1), // below the floor (noise): dropped
+            Point3::new(5.05, 1.05, 0.5),  // 4.5 m ahead: clears up to 3 m, not marked
+            Point3::new(f64::NAN, 1.0, 0.5),
+        ];
+        let rays = cloud_rays(origin, points, &limits(), (0.0, 2.0));
+        assert_eq!(rays.len(), 2);
+        assert_eq!(rays[0].mark, Some(Point2::new(2.05, 1.05)));
+        assert_eq!(rays[1].mark, None);
+        assert!((rays[1].clear_to - Point2::new(3.55, 1.05)).norm() < 1e-9);
+        // 2.4 m straight ahead but 2.6 m away in three dimensions (the point is 1 m below the
+        // sensor): beyond obstacle_max_range, as Nav2 measures it.
+        let low = cloud_rays(
+            origin,
+            [Point3::new(2.95, 1.05, -0.5)],
+            &limits(),
+            (-1.0, 2.0),
+        );
+        assert_eq!(low[0].mark, None);
+        let mut layer = ObstacleLayer::new(info());
+        assert!(layer.observe(&rays));
+        assert!(layer.is_marked(cell_at(2.05, 1.05)));
+        assert_eq!(layer.marked_count(), 1);
     }
 
     /// A rotated sensor's rays go where its pose puts them; rays off the map are skipped.
