@@ -19,6 +19,9 @@ import rclpy
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetPlan
+from geometry_msgs.msg import TransformStamped
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from tf2_msgs.msg import TFMessage
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 
@@ -225,8 +228,9 @@ def zone_mask(value=100):
 def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
     """Nav2's keepout filter, for the node's own costmap (`keepout_mask_topic`): a mask (as a
     filter mask server latches it, of its own resolution and origin) keeps the plans out of its
-    zone at once, and the published costmap shows it lethal; a mask in another frame is refused
-    on /diagnostics and the last good one stays; an empty mask frees the way again."""
+    zone at once, and the published costmap shows it lethal; a mask in a frame TF cannot place
+    is refused on /diagnostics and the last good one stays; one in another frame of the TF tree
+    is placed through it; an empty mask frees the way again."""
     mask_topic = "/keepout_filter_mask"
     proc, ros = keepout_node(tmp_path, f"keepout_mask_topic: {mask_topic}", 34, "keepout_test.log")
     try:
@@ -255,11 +259,31 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
 
         i = len(ros.diagnostics)
         other = zone_mask(0)
-        other.header.frame_id = "odom"
+        other.header.frame_id = "nowhere"
         mask_pub.publish(other)
         code, why, _ = ros.wait_code(i, "INVALID_INPUT")
-        assert "keepout mask" in why and "`odom`" in why, why
+        assert "keepout mask" in why and "`nowhere`" in why, why
         assert plan() and not through_zone(plan()), "the last good mask stays"
+
+        # A mask in another frame is placed through TF (Nav2's filters transform theirs): the
+        # same zone in `zones`, 2 m to the map's -x (/tf_static), keeps the plan out of x 2..4.
+        static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
+            depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        ros.wait_matched(static, "/tf_static")
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = "map", "zones"
+        t.transform.translation.x, t.transform.rotation.w = -2.0, 1.0
+        static.publish(TFMessage(transforms=[t]))
+        moved = zone_mask()
+        moved.header.frame_id = "zones"
+        mask_pub.publish(moved)
+
+        def round_moved_zone():
+            poses = plan()
+            inside = [p for p in poses if 2.0 <= p.pose.position.x <= 4.0 and p.pose.position.y <= 4.5]
+            return poses if poses and not inside and through_zone(poses) else None
+
+        ros.spin_until(round_moved_zone, 20, "a plan round the zone placed through TF, through where it was")
 
         mask_pub.publish(zone_mask(0))
         ros.spin_until(lambda: through_zone(plan()), 20, "the way free again under an empty mask")

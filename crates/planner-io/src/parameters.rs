@@ -106,7 +106,7 @@ pub struct NodeParams {
     /// Empty (default): plan on `map`.
     pub costmap_topic: String,
     /// A keepout mask to lay over the node's own costmap, as Nav2's keepout filter lays its
-    /// mask over costmap_2d's (nav_msgs/OccupancyGrid in the global frame, latched, e.g. the
+    /// mask over costmap_2d's (nav_msgs/OccupancyGrid, latched, in the global frame or one TF places in it, e.g. the
     /// `/keepout_filter_mask` a filter mask server publishes): occupancy 100 keeps the robot's
     /// centre out, lesser values are costs (0..100 scaled to 0..254). Each new mask is laid over
     /// the current grid at once. Not with `costmap_topic`, whose costmap has its own filters.

@@ -140,9 +140,9 @@ pub struct Zones {
     pub mask: Option<Arc<GridMap>>,
 }
 
-/// The masks of `filter` on `topic`: each one checked (a map's bounds and cell cap; in the
-/// global frame, as this node has no transform to lay a mask of another frame by) and put in
-/// force. A keepout mask is kept for every grid made from now on; the current grid is made
+/// The masks of `filter` on `topic`: each one checked (a map's bounds and cell cap; a mask in
+/// another frame placed in the global frame through TF, its frame's latest transform, or
+/// refused when TF cannot place it) and put in force. A keepout mask is kept for every grid made from now on; the current grid is made
 /// again under it at once, and the path being followed checked against it
 /// (`inputs::remake_grid_on_change`): a path through a new keepout zone is planned again. A
 /// speed or binary mask is read at the robot's pose from the next control tick
@@ -164,15 +164,27 @@ pub async fn receive_masks(
                 continue;
             }
         };
+        // A mask in another frame (a docking station's, a floor's) is placed in the global
+        // frame through TF, with the latest transform, as Nav2's filters look theirs up.
         let frame = msg.header.frame_id.clone();
-        let global = s.params.global_frame.clone();
+        let placed = if frame.is_empty() || frame == s.params.global_frame {
+            Ok(None)
+        } else {
+            s.frame_in_global(&frame, 0.0)
+                .await
+                .map(Some)
+                .map_err(|f| format!("the mask's frame: {}", f.message))
+        };
         let checked = tokio::task::spawn_blocking(move || {
-            if !frame.is_empty() && frame != global {
-                return Err(format!(
-                    "the mask is in frame `{frame}` and the node plans in `{global}`: publish it in `{global}`"
-                ));
+            let mask = convert::grid_from_msg(&msg).map_err(|e| e.to_string())?;
+            match placed? {
+                None => Ok(mask),
+                Some(at) => {
+                    let origin = convert::iso3(mask.info().origin);
+                    mask.placed_at(convert::planar(&(at * origin)))
+                        .map_err(|e| e.to_string())
+                }
             }
-            convert::grid_from_msg(&msg).map_err(|e| e.to_string())
         })
         .await;
         match checked {
@@ -191,8 +203,13 @@ pub async fn receive_masks(
                     }
                 }
                 info!(
-                    "{kind} mask from {topic}: {} x {} cells of {:.3} m",
-                    info.width, info.height, info.resolution
+                    "{kind} mask from {topic}: {} x {} cells of {:.3} m from ({:.3}, {:.3}, {:.3} rad)",
+                    info.width,
+                    info.height,
+                    info.resolution,
+                    info.origin.x,
+                    info.origin.y,
+                    info.origin.yaw
                 );
                 if filter == Filter::Keepout {
                     s.settings_changed.notify_one();

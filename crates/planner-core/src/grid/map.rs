@@ -195,6 +195,20 @@ impl GridMap {
         &self.info
     }
 
+    /// The same cells placed elsewhere: `origin` replaces the origin (a mask given in another
+    /// frame, placed in the map's), checked as every origin is.
+    pub fn placed_at(self, origin: Pose2) -> Result<Self, MapError> {
+        let info = MapInfo {
+            origin,
+            ..self.info
+        };
+        info.validate(u64::MAX)?;
+        Ok(Self {
+            info,
+            data: self.data,
+        })
+    }
+
     pub fn data(&self) -> &[i8] {
         &self.data
     }
@@ -268,6 +282,27 @@ mod tests {
             resolution: 0.05,
             origin: Pose2::default(),
         }
+    }
+
+    /// A map placed elsewhere keeps its cells; its cells are then found where the new origin
+    /// puts them (turned a quarter: cell (1, 0) lies along the world's +y); an origin beyond
+    /// the map limits is refused.
+    #[test]
+    fn a_map_placed_elsewhere_keeps_its_cells_at_the_new_place() {
+        let map = GridMap::new(info(2, 1), vec![0, 100]).unwrap();
+        let turned = Pose2::new(3.0, 4.0, std::f64::consts::FRAC_PI_2);
+        let placed = map.clone().placed_at(turned).unwrap();
+        assert_eq!(placed.data(), map.data());
+        let c = placed
+            .info()
+            .world_to_cell(Point2::new(2.975, 4.075))
+            .unwrap();
+        assert_eq!((c, placed.value(c)), (Cell::new(1, 0), 100));
+        let far = Pose2::new(2.0 * MAX_EXTENT, 0.0, 0.0);
+        assert!(matches!(
+            map.placed_at(far),
+            Err(MapError::BadOrigin { .. })
+        ));
     }
 
     #[test]
