@@ -378,6 +378,8 @@ pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscri
     let is_static = name.ends_with("_static");
     let mut announced = false;
     let mut refused = std::collections::HashSet::new();
+    // The stamp of the last odometry taken from /tf.
+    let mut last_odometry = None;
     loop {
         let Ok((msg, _)) = sub.async_take().await else {
             continue;
@@ -429,7 +431,7 @@ pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscri
             }
         }
         if !is_static {
-            odometry_from_tf(&s, &msg, base, child);
+            odometry_from_tf(&s, &msg, base, child, &mut last_odometry);
         }
     }
 }
@@ -437,24 +439,42 @@ pub async fn receive_transforms(s: Arc<Shared>, name: &'static str, sub: Subscri
 /// The robot's pose in `odom` from the TF buffer, when `msg` moved one of the frames between
 /// `base` and `odom` (a message about other frames, a joint's or a cart's, gives no new
 /// odometry, and must not keep an odometry that stopped looking fresh). Looked up at the
-/// latest time all those frames reach, as Nav2 looks the robot's pose up at time 0.
-fn odometry_from_tf(s: &Shared, msg: &TFMessage, base: &str, odom: &str) {
-    let latest = {
+/// latest time all those frames reach, as Nav2 looks the robot's pose up at time 0, and taken
+/// only when that time is new (`last`: a transform refused, or older than the buffer's newest,
+/// moves nothing) and not more than `pose_timeout` behind the newest transform of the chain in
+/// `msg` (another link of the chain that stopped would hold the lookup back: Nav2's
+/// `getRobotPose` refuses a pose older than its tolerance).
+fn odometry_from_tf(s: &Shared, msg: &TFMessage, base: &str, odom: &str, last: &mut Option<f64>) {
+    let (latest, newest) = {
         let tf = s.tf.lock().expect("lock");
         let Ok(path) = tf.path_up_to(base, odom) else {
             return;
         };
-        let moved = msg
+        let newest = msg
             .transforms
             .iter()
-            .any(|t| path.contains(&convert::frame_name(&t.child_frame_id)));
-        if !moved {
+            .filter(|t| path.contains(&convert::frame_name(&t.child_frame_id)))
+            .map(|t| convert::seconds(&t.header.stamp))
+            .reduce(f64::max);
+        let Some(newest) = newest else {
             return;
-        }
-        tf.latest_up_to(base, odom)
+        };
+        (tf.latest_up_to(base, odom), newest)
     };
     match latest {
         Ok((t, Some(stamp))) => {
+            if *last == Some(stamp) && stamp != 0.0 {
+                return;
+            }
+            if newest - stamp > s.params.pose_timeout {
+                debug!(
+                    "/tf: `{odom}` -> `{base}` known only up to {stamp:.3} s, {:.3} s behind its \
+                     newest link: not taken as odometry",
+                    newest - stamp
+                );
+                return;
+            }
+            *last = Some(stamp);
             s.odometry(OdometrySource::Tf, stamp, convert::planar(&t));
         }
         // Every edge static: a robot that never moves is no odometry.
