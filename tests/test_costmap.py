@@ -230,7 +230,8 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
     filter mask server latches it, of its own resolution and origin) keeps the plans out of its
     zone at once, and the published costmap shows it lethal; a mask in a frame TF cannot place
     is refused on /diagnostics and the last good one stays; one in another frame of the TF tree
-    is placed through it; an empty mask frees the way again."""
+    is placed through it, also when its transform comes after it; an empty mask frees the way
+    again."""
     mask_topic = "/keepout_filter_mask"
     proc, ros = keepout_node(tmp_path, f"keepout_mask_topic: {mask_topic}", 34, "keepout_test.log")
     try:
@@ -267,6 +268,13 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
 
         # A mask in another frame is placed through TF (Nav2's filters transform theirs): the
         # same zone in `zones`, 2 m to the map's -x (/tf_static), keeps the plan out of x 2..4.
+        # The mask comes first, its frame's transform a second later: the node tries again.
+        moved = zone_mask()
+        moved.header.frame_id = "zones"
+        i = len(ros.diagnostics)
+        mask_pub.publish(moved)
+        code, why, _ = ros.wait_code(i, "INVALID_INPUT")
+        assert "not placed yet" in why and "`zones`" in why, why
         static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
             depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         ros.wait_matched(static, "/tf_static")
@@ -274,9 +282,6 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
         t.header.frame_id, t.child_frame_id = "map", "zones"
         t.transform.translation.x, t.transform.rotation.w = -2.0, 1.0
         static.publish(TFMessage(transforms=[t]))
-        moved = zone_mask()
-        moved.header.frame_id = "zones"
-        mask_pub.publish(moved)
 
         def round_moved_zone():
             poses = plan()

@@ -156,28 +156,52 @@ pub async fn receive_masks(
     sub: Subscription<OccupancyGrid>,
 ) {
     let kind = filter.name();
+    // A mask whose frame TF could not place yet (a latched mask that came before its frame's
+    // transform), tried again every PLACE_RETRY until it is placed or a newer mask comes.
+    let mut unplaced: Option<OccupancyGrid> = None;
     loop {
-        let msg = match sub.async_take().await {
-            Ok((msg, _)) => msg,
-            Err(e) => {
-                warn!("{topic}: {e:?}");
-                continue;
-            }
+        let retrying = unplaced.is_some();
+        let msg = tokio::select! {
+            taken = sub.async_take() => match taken {
+                Ok((msg, _)) => msg,
+                Err(e) => {
+                    warn!("{topic}: {e:?}");
+                    continue;
+                }
+            },
+            () = tokio::time::sleep(PLACE_RETRY), if retrying => match unplaced.take() {
+                Some(msg) => msg,
+                None => continue,
+            },
         };
         // A mask in another frame (a docking station's, a floor's) is placed in the global
         // frame through TF, with the latest transform, as Nav2's filters look theirs up.
         let frame = msg.header.frame_id.clone();
         let placed = if frame.is_empty() || frame == s.params.global_frame {
-            Ok(None)
+            None
         } else {
-            s.frame_in_global(&frame, 0.0)
-                .await
-                .map(Some)
-                .map_err(|f| format!("the mask's frame: {}", f.message))
+            match s.frame_in_global(&frame, 0.0).await {
+                Ok(at) => Some(at),
+                Err(f) => {
+                    let was_retry = retrying && unplaced.is_none();
+                    unplaced = Some(msg);
+                    // Reported once per mask, not at every retry.
+                    if !was_retry {
+                        let why = format!(
+                            "{kind} mask on {topic} not placed yet, keeping the last good one \
+                             and trying again every {} s: the mask's frame: {}",
+                            PLACE_RETRY.as_secs_f64(),
+                            f.message
+                        );
+                        refuse(&s, &o, why).await;
+                    }
+                    continue;
+                }
+            }
         };
         let checked = tokio::task::spawn_blocking(move || {
             let mask = convert::grid_from_msg(&msg).map_err(|e| e.to_string())?;
-            match placed? {
+            match placed {
                 None => Ok(mask),
                 Some(at) => {
                     let origin = convert::iso3(mask.info().origin);
@@ -227,6 +251,9 @@ pub async fn receive_masks(
         }
     }
 }
+
+/// How often a mask whose frame TF cannot place yet is tried again.
+const PLACE_RETRY: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// How many mask readers one filter makes over the node's life. ros2-client keeps a dropped
 /// reader's id in the node's discovery announcements for good, so a publisher switching its
