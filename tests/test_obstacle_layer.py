@@ -159,9 +159,18 @@ def test_a_scanned_obstacle_is_planned_round_until_a_scan_clears_it(rig):
                  ClearCostmapExceptRegion.Request(reset_distance=1.0))
     assert goes_straight(), "the block is outside the square kept"
 
-    # Seen again, then a scan whose rays pass where it was: round it, then straight again.
+    # Seen again; a 6 m square round the robot takes the block in, and clears it.
     laser.on = True
     ros.spin_until(goes_round, 30, "a plan round the block seen again")
+    laser.on = False
+    ros.spin_for(0.3)
+    call_service(ros, ClearCostmapAroundRobot, "/global_costmap/clear_around_global_costmap",
+                 ClearCostmapAroundRobot.Request(reset_distance=6.0))
+    assert goes_straight(), "the block is inside the square cleared"
+
+    # Seen again, then a scan whose rays pass where it was: round it, then straight again.
+    laser.on = True
+    ros.spin_until(goes_round, 30, "a plan round the block seen a third time")
     laser.block = False
     straight = ros.spin_until(goes_straight, 30, "a straight plan once the scan's rays pass where the block was")
     assert straight[-1] == pytest.approx(GOAL)

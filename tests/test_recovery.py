@@ -101,9 +101,9 @@ def rig(tmp_path):
         "patrol_planner:\n  ros__parameters:\n"
         '    map_yaml: ""\n    planner: astar\n'
         f"    progress_checker: {{movement_time_allowance: {ALLOWANCE}}}\n"
-        # The round robin's motions only: nothing is scanned here, so its first step, clearing
-        # the obstacle layer (test_obstacle_layer.py), would only spend a retry.
-        f"    recovery: {{number_of_retries: {RETRIES}, behaviors: [spin, wait, backup], wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
+        # The default round robin: nothing is scanned here, so its first step, clearing the
+        # obstacle layer (test_obstacle_layer.py), is passed over for the spin each time.
+        f"    recovery: {{number_of_retries: {RETRIES}, wait_duration: {WAIT}, time_allowance: {BEHAVIOR_ALLOWANCE}}}\n"
         "    speed_filter_info_topic: /speed_filter_info\n"
         "    binary_filter: {filter_info_topic: /binary_filter_info}\n"
         f"    input_at_waypoint: {{enabled: true, timeout: {INPUT_TIMEOUT}}}\n"

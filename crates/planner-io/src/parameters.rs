@@ -198,7 +198,8 @@ pub struct RecoveryParams {
 pub enum RecoveryBehavior {
     /// Forget the obstacles the scans marked (the tree's ClearingActions: ClearEntireCostmap
     /// on both costmaps): a person who stood in the way and has walked out of the scanner's
-    /// view no longer blocks the next plan. The map and its inflation stay. Always succeeds.
+    /// view no longer blocks the next plan. The map and its inflation stay. With nothing
+    /// marked (no scanner, or `costmap_topic`) it is passed over for the next behaviour.
     Clear,
     /// Turn on the spot through `spin_dist`: lets a robot that lost its way see (and, with
     /// AMCL, localise) around it, and faces it another way for the next plan.

@@ -263,7 +263,7 @@ pub async fn serve_clear<R: ClearRequest>(
 
 /// Clears `region` of the obstacle layer; returns how many cells stay marked, `None` when
 /// nothing was cleared.
-async fn clear(s: &Shared, region: Region) -> Result<Option<usize>, String> {
+async fn clear(s: &Arc<Shared>, region: Region) -> Result<Option<usize>, String> {
     let side_ok = |side: f64| {
         if side.is_finite() && side >= 0.0 {
             Ok(side)
@@ -285,12 +285,19 @@ async fn clear(s: &Shared, region: Region) -> Result<Option<usize>, String> {
             Some((at.position(), side, true))
         }
     };
+    // Off the async threads: the scans' task holds the layer while it traces.
+    let shared = s.clone();
+    tokio::task::spawn_blocking(move || clear_layer(&shared, square))
+        .await
+        .map_err(|e| e.to_string())
+}
+
+/// [`clear`]'s work on the layer: `square` (centre, side, inside) or everything.
+fn clear_layer(s: &Shared, square: Option<(Point2, f64, bool)>) -> Option<usize> {
     let left = {
         let mut obstacles = s.obstacles.lock().expect("lock");
         let (layer, changed) = &mut *obstacles;
-        let Some(layer) = layer.as_mut() else {
-            return Ok(None);
-        };
+        let layer = layer.as_mut()?;
         let cleared = match square {
             None => layer.clear_all(),
             Some((center, side, inside)) => layer.clear_square(center, side, inside),
@@ -300,5 +307,5 @@ async fn clear(s: &Shared, region: Region) -> Result<Option<usize>, String> {
     };
     // Laid now (unless the scans' task just did), not at the layer's next update.
     s.lay_obstacles();
-    Ok(left)
+    left
 }

@@ -316,7 +316,8 @@ struct RoundRobin {
 /// One recovery behaviour of the round robin.
 #[derive(Clone, Copy, Debug)]
 enum Step {
-    /// Forget what the scans marked (the tree's ClearingActions): always succeeds.
+    /// Forget what the scans marked (the tree's ClearingActions); with nothing marked it
+    /// cannot help, and the round robin goes on to the next behaviour at once.
     Clear,
     /// A motion of the behavior server's.
     Move(Behavior),
@@ -373,8 +374,17 @@ impl RoundRobin {
             let step = self.behaviors[self.next];
             self.next = (self.next + 1) % self.behaviors.len();
             let Step::Move(behavior) = step else {
-                let left = s.forget_obstacles();
-                info!("drive for goal {mine}: recovery: the obstacles seen cleared ({left} cells were marked)");
+                // Off the async threads: the scans' task holds the layer while it traces.
+                let shared = s.clone();
+                let had = tokio::task::spawn_blocking(move || shared.forget_obstacles())
+                    .await
+                    .unwrap_or(0);
+                if had == 0 {
+                    // Nothing seen to clear cannot help: the next behaviour, in this recovery.
+                    failures.push("nothing seen to clear".to_string());
+                    continue;
+                }
+                info!("drive for goal {mine}: recovery: the obstacles seen cleared ({had} cells were marked)");
                 return Recovered::Yes;
             };
             info!("drive for goal {mine}: recovery: {behavior}");

@@ -106,8 +106,10 @@ struct Fault {
     why: String,
 }
 
-/// One reading into the layer. The layer is made afresh on the current map's grid when the map
-/// changed (a new floor: what was seen on the old one is no longer where it was). Nothing
+/// One reading into the layer. The layer is made afresh on the current map's grid when the
+/// map's size or origin changed (a new floor: what was seen on the old one is no longer where
+/// it was), as costmap_2d's layers are reset when the map resizes; a map updated in place (a
+/// SLAM map republished) keeps what was seen. Nothing
 /// happens before the first map, or on a costmap taken as it is. The reading is checked and
 /// traced off the async threads: a cloud of a million points, or a long raytrace range on a
 /// fine map, takes tens of milliseconds.
@@ -220,7 +222,9 @@ fn trace(s: &Shared, rays: &[Ray], info: MapInfo) {
     let (layer, changed) = &mut *obstacles;
     if layer.as_ref().is_none_or(|l| *l.info() != info) {
         if layer.is_some() {
-            info!("a new map: the obstacles seen on the last one are forgotten");
+            info!(
+                "a map of another size or origin: the obstacles seen on the last one are forgotten"
+            );
         }
         *layer = Some(ObstacleLayer::new(info));
         *changed = true;

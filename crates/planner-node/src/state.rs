@@ -444,16 +444,19 @@ impl Shared {
     /// Lays the obstacle layer on the grid, if it changed since it last was: the grid is made
     /// again from it at once ([`Shared::settings_changed`]). Returns how many cells are marked.
     pub fn lay_obstacles(&self) -> Option<usize> {
-        let seen = {
+        let marked = {
             let mut obstacles = self.obstacles.lock().expect("lock");
             let (layer, changed) = &mut *obstacles;
             if !std::mem::take(changed) {
                 return None;
             }
-            layer.clone().map(Arc::new)
+            let seen = layer.clone().map(Arc::new);
+            let marked = seen.as_ref().map_or(0, |l| l.marked_count());
+            // Written under the layer's lock: a copy taken before a clearing can never be
+            // written after the clearing's own, which would bring back what was cleared.
+            *self.seen_obstacles.write().expect("lock") = seen;
+            marked
         };
-        let marked = seen.as_ref().map_or(0, |l| l.marked_count());
-        *self.seen_obstacles.write().expect("lock") = seen;
         self.settings_changed.notify_one();
         Some(marked)
     }

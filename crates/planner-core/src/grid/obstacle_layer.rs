@@ -46,9 +46,10 @@ pub struct Ray {
 
 /// The rays of a planar laser scan (sensor_msgs/LaserScan's fields) as costmap_2d's
 /// ObstacleLayer reads them through laser_geometry: ray `i` at `angle_min + i * increment`,
-/// a range outside `range_min..=range_max` (or NaN) is no reading, an infinite one is the
-/// sensor's maximum range with `inf_is_valid` (clearing, marked only if that is within
-/// `obstacle_max_range`), else no reading. `to_map` carries a point of the sensor's frame
+/// a range outside `range_min..range_max` (or NaN) is no reading (a sensor reports its
+/// maximum when nothing is there), an infinite one is just under the sensor's maximum range
+/// with `inf_is_valid` (clearing, marked only if that is within `obstacle_max_range`), else no
+/// reading. Marked: from `obstacle_min_range` up to, not at, `obstacle_max_range`. `to_map` carries a point of the sensor's frame
 /// (x, y in its scan plane) into the map frame; the sensor is at its (0, 0).
 pub fn scan_rays(
     ranges: &[f32],
@@ -65,14 +66,14 @@ pub fn scan_rays(
         let r = if r == f64::INFINITY && limits.inf_is_valid {
             // Nav2 reads it as just under range_max, so laser_geometry keeps the point.
             range_max - 1e-4
-        } else if r.is_finite() && r >= range_min && r <= range_max {
+        } else if r.is_finite() && r >= range_min && r < range_max {
             r
         } else {
             continue;
         };
         let (sin, cos) = (angle_min + i as f64 * increment).sin_cos();
         let at = |d: f64| to_map(d * cos, d * sin);
-        let mark = (limits.obstacle_min_range..=limits.obstacle_max_range).contains(&r);
+        let mark = r >= limits.obstacle_min_range && r < limits.obstacle_max_range;
         let clear_from = limits.raytrace_min_range.min(r);
         rays.push(Ray {
             clear_from: at(clear_from),
@@ -225,7 +226,8 @@ impl ObstacleLayer {
             let g = self
                 .info
                 .world_to_grid(Point2::new(center.x + dx, center.y + dy));
-            (g.x.floor(), g.y.floor())
+            // costmap_2d's worldToMapNoBounds: truncated toward zero.
+            (g.x.trunc(), g.y.trunc())
         };
         let (x0, y0) = corner(-half, -half);
         let (x1, y1) = corner(half, half);
@@ -337,7 +339,14 @@ mod tests {
         let scan = |ranges: &[f32], limits: &RangeLimits| {
             scan_rays(ranges, 0.0, 0.0, 0.1, 3.2, limits, sensor)
         };
-        assert!(scan(&[0.05, 3.5, f32::NAN, f32::INFINITY, -1.0], &limits()).is_empty());
+        // Below range_min, at or past range_max (nothing there), NaN, infinite, negative.
+        assert!(scan(&[0.05, 3.2, 3.5, f32::NAN, f32::INFINITY, -1.0], &limits()).is_empty());
+        let edge = scan(&[2.5, 2.4999], &limits());
+        assert_eq!(
+            edge[0].mark, None,
+            "obstacle_max_range itself is not marked"
+        );
+        assert!(edge[1].mark.is_some());
         let far = scan(&[2.8], &limits());
         assert_eq!(far.len(), 1);
         assert_eq!(
