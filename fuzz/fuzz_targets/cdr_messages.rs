@@ -23,6 +23,7 @@ use patrol_msgs::nav2_msgs::{
     LoadMapRequest, NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetMapRequest, GetPlanRequest, OccupancyGrid, Odometry};
+use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
 use patrol_msgs::tf2_msgs::TFMessage;
 use planner_core::geometry::Pose2;
 use planner_core::grid::map::DEFAULT_MAX_CELLS;
@@ -71,7 +72,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 30 {
+    match selector % 32 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -146,6 +147,16 @@ fuzz_target!(|data: &[u8]| {
         26 => drop(round_trip::<ClearEntireCostmapRequest>(payload)),
         27 => drop(round_trip::<ClearCostmapAroundRobotRequest>(payload)),
         28 => drop(round_trip::<ClearCostmapExceptRegionRequest>(payload)),
-        _ => drop(round_trip::<ClearCostmapAroundPoseRequest>(payload)),
+        29 => drop(round_trip::<ClearCostmapAroundPoseRequest>(payload)),
+        30 => {
+            if let Some(scan) = round_trip::<LaserScan>(payload) {
+                assert!(scan.ranges.len() + scan.intensities.len() <= payload.len());
+            }
+        }
+        _ => {
+            if let Some(cloud) = round_trip::<PointCloud2>(payload) {
+                assert!(cloud.data.len() + cloud.fields.len() <= payload.len());
+            }
+        }
     }
 });
