@@ -239,6 +239,21 @@ def start_bridge(domain, params_file, log_name, rust_log="chassis_bridge=info,wa
 
 
 @contextlib.contextmanager
+def node_rig(offset, node_params, name):
+    """The real node alone on a domain of its own (`offset`, as `domain_id` takes it), its
+    output in target/patrol_planner_`name`_test.log, and a client beside it; both stopped
+    afterwards."""
+    domain = domain_id(offset)
+    node = start_node(domain, node_params, f"patrol_planner_{name}_test.log")
+    ros = Ros(domain, context=rclpy.Context())
+    try:
+        yield ros
+    finally:
+        ros.close()
+        stop_binary(node)
+
+
+@contextlib.contextmanager
 def driving_rig(offset, node_params, bridge_params, name, bridge_args=()):
     """The real node and chassis_bridge (the simulated car) on a domain of their own (`offset`,
     as `domain_id` takes it; the bridge's `bridge_args` after `--ros-args`), their output in

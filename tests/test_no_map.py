@@ -6,27 +6,20 @@ import math
 
 import numpy as np
 import pytest
-import rclpy
 
 from nav_msgs.msg import Odometry
 
-from conftest import Ros, domain_id, initial_pose, start_node, stamped, stop_binary
+from conftest import initial_pose, node_rig, stamped
 from test_node import assert_collision_free, grid_msg, plan_to
 from test_services import get_plan
 
 
 @pytest.fixture(scope="module")
 def bare(tmp_path_factory):
-    domain = domain_id(55)  # away from the `ros` fixture's node
     params = tmp_path_factory.mktemp("no_map") / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n    follow_plan: false\n')
-    proc = start_node(domain, params, "patrol_planner_no_map_test.log")
-    r = Ros(domain, context=rclpy.Context())
-    try:
+    with node_rig(55, params, "no_map") as r:  # a domain away from the `ros` fixture's node
         yield r
-    finally:
-        r.close()
-        stop_binary(proc)
 
 
 def test_no_map_yet_then_a_map(bare):

@@ -12,14 +12,13 @@ import math
 
 import numpy as np
 import pytest
-import rclpy
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.srv import GetPlan
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from tf2_msgs.msg import TFMessage
 
-from conftest import ROOT, Ros, call_service, domain_id, initial_pose, start_node, stamped, stop_binary
+from conftest import ROOT, call_service, initial_pose, node_rig, stamped
 from test_node import grid_msg
 
 # A 6 m x 3 m room (0.1 m cells, origin at 0, 0), empty. The robot at (0.5, 1.5) facing +x, its
@@ -82,21 +81,16 @@ class Laser:
 def room(tmp_path, layer):
     """The node on the empty room, its obstacle layer set by `layer` (a YAML flow mapping), the
     robot at START."""
-    domain = domain_id(76)  # away from the `ros` fixture's node and the other modules'
     params = tmp_path / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n'
                       f"    obstacle_layer: {layer}\n")
-    proc = start_node(domain, params, "patrol_planner_obstacle_layer_test.log")
-    ros = Ros(domain, context=rclpy.Context())
-    try:
+    # A domain away from the `ros` fixture's node and the other modules'.
+    with node_rig(76, params, "obstacle_layer") as ros:
         ros.wait_matched(ros.map_pub, "/map")
         ros.wait_matched(ros.initial_pub, "/initialpose")
         ros.map_pub.publish(grid_msg(np.zeros((30, 60), dtype=np.int8), (0.0, 0.0), 0.1))
         ros.initial_pub.publish(initial_pose(*START))
         yield ros
-    finally:
-        ros.close()
-        stop_binary(proc)
 
 
 @pytest.fixture
@@ -147,25 +141,23 @@ def test_a_scanned_obstacle_is_planned_round_until_a_scan_clears_it(rig):
     ros.spin_for(1.0)
     assert goes_round()
 
-    # The scans stop; costmap_2d's clearing services clear what they marked, in their regions:
-    # a 1 m square round the robot (at 0.5, 1.5) leaves the block (2.8 m on) as it is; all but
+    def stop_and_clear(srv, name, reset_distance):
+        """The scans stop; costmap_2d's clearing service `name` clears what they marked."""
+        laser.on, laser.bad = False, False
+        ros.spin_for(0.3)
+        call_service(ros, srv, f"/global_costmap/{name}_global_costmap", srv.Request(reset_distance=reset_distance))
+
+    # A 1 m square round the robot (at 0.5, 1.5) leaves the block (2.8 m on) as it is; all but
     # that square clears it, and the next plan goes straight.
-    laser.on, laser.bad = False, False
-    ros.spin_for(0.3)
-    call_service(ros, ClearCostmapAroundRobot, "/global_costmap/clear_around_global_costmap",
-                 ClearCostmapAroundRobot.Request(reset_distance=1.0))
+    stop_and_clear(ClearCostmapAroundRobot, "clear_around", 1.0)
     assert goes_round(), "the block is outside the square cleared"
-    call_service(ros, ClearCostmapExceptRegion, "/global_costmap/clear_except_global_costmap",
-                 ClearCostmapExceptRegion.Request(reset_distance=1.0))
+    stop_and_clear(ClearCostmapExceptRegion, "clear_except", 1.0)
     assert goes_straight(), "the block is outside the square kept"
 
     # Seen again; a 6 m square round the robot takes the block in, and clears it.
     laser.on = True
     ros.spin_until(goes_round, 30, "a plan round the block seen again")
-    laser.on = False
-    ros.spin_for(0.3)
-    call_service(ros, ClearCostmapAroundRobot, "/global_costmap/clear_around_global_costmap",
-                 ClearCostmapAroundRobot.Request(reset_distance=6.0))
+    stop_and_clear(ClearCostmapAroundRobot, "clear_around", 6.0)
     assert goes_straight(), "the block is inside the square cleared"
 
     # Seen again, then a scan whose rays pass where it was: round it, then straight again.

@@ -9,14 +9,13 @@ import math
 
 import numpy as np
 import pytest
-import rclpy
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from nav_msgs.srv import GetPlan
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from tf2_msgs.msg import TFMessage
 
-from conftest import Ros, call_service, domain_id, start_node, stamped, stop_binary
+from conftest import call_service, node_rig, stamped
 from test_node import grid_msg
 
 # A 6 m x 3 m room (0.1 m cells, origin at 0, 0), empty.
@@ -71,18 +70,13 @@ class Odometries:
 
 @pytest.fixture
 def rig(tmp_path):
-    domain = domain_id(75)  # away from the `ros` fixture's node and the other modules'
     params = tmp_path / "planner.yaml"
     params.write_text('patrol_planner:\n  ros__parameters:\n    map_yaml: ""\n    planner: astar\n')
-    proc = start_node(domain, params, "patrol_planner_odometry_test.log")
-    ros = Ros(domain, context=rclpy.Context())
-    try:
+    # A domain away from the `ros` fixture's node and the other modules'.
+    with node_rig(75, params, "odometry") as ros:
         ros.wait_matched(ros.map_pub, "/map")
         ros.map_pub.publish(grid_msg(np.zeros((30, 60), dtype=np.int8), (0.0, 0.0), 0.1))
         yield ros, Odometries(ros)
-    finally:
-        ros.close()
-        stop_binary(proc)
 
 
 def start_of_plan(ros):
