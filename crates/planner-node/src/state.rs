@@ -1144,6 +1144,51 @@ mod tests {
         assert!(state.grid.is_free(Cell::new(5, 2)));
     }
 
+    /// The obstacles the scans have shown are laid on the map before it is inflated (a seen
+    /// obstacle keeps the robot's radius and margin off, as a wall does), are part of what a
+    /// grid is made with (a new layer makes it again), and are left off a map of another size.
+    #[test]
+    fn seen_obstacles_are_inflated_with_the_map() {
+        use planner_core::grid::obstacle_layer::Ray;
+        let settings = GridSettings::without_keepout(InflationConfig::default());
+        let radius = settings.costmap.radius();
+        assert!(radius > 0.2 && radius < 0.8, "{radius}");
+        let map = Arc::new(wall_map_at(1));
+        let mut layer = ObstacleLayer::new(*map.info());
+        // A return in cell (20, 5), seen from half a metre before it.
+        let at = Point2::new(2.05, 0.55);
+        assert!(layer.observe(&[Ray {
+            clear_from: Point2::new(1.55, 0.55),
+            clear_to: at,
+            mark: Some(at),
+        }]));
+        let seen = GridSettings {
+            obstacles: Some(Arc::new(layer)),
+            ..settings.clone()
+        };
+        let state = MapState::new(map.clone(), false, &seen).unwrap();
+        assert_eq!(state.map().value(Cell::new(20, 5)), 100);
+        // 0.2 m off is within the inflated radius, 0.8 m off is not.
+        assert!(!state.grid.is_free(Cell::new(20, 5)) && !state.grid.is_free(Cell::new(22, 5)));
+        assert!(state.grid.is_free(Cell::new(28, 5)));
+        assert!(state.is_made_with(&seen) && !state.is_made_with(&settings));
+        let plain = state.remade(&settings).unwrap();
+        assert!(plain.grid.is_free(Cell::new(20, 5)) && plain.is_made_with(&settings));
+        let narrower = GridMap::new(
+            MapInfo {
+                width: 30,
+                ..*map.info()
+            },
+            vec![0; 300],
+        )
+        .unwrap();
+        let other = MapState::new(Arc::new(narrower), false, &seen).unwrap();
+        assert!(
+            other.grid.is_free(Cell::new(20, 5)),
+            "a layer of another grid is not laid"
+        );
+    }
+
     /// A published costmap marks a cell unknown only where the map is and no keepout zone lies
     /// over it: a zone laid over unexplored space shows there, as Nav2's keepout filter's does,
     /// and the free rest of the mask leaves unexplored space unknown.
