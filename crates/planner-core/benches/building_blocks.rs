@@ -11,6 +11,7 @@
 //! collision-free path), so a fast wrong answer cannot pass. Run: `cargo bench -p planner-core`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use nalgebra::Point3;
 use ordered_float::OrderedFloat;
 use planner_core::geometry::{Cell, Point2};
 use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
@@ -154,6 +155,8 @@ fn obstacle_layer_update(c: &mut Criterion) {
         raytrace_min_range: 0.0,
         raytrace_max_range: 3.0,
         inf_is_valid: false,
+        min_obstacle_height: 0.0,
+        max_obstacle_height: 2.0,
     };
     let ranges = vec![2.0f32; 1080];
     let increment = 1.5 * std::f64::consts::PI / 1080.0;
@@ -164,7 +167,7 @@ fn obstacle_layer_update(c: &mut Criterion) {
         0.05,
         10.0,
         &limits,
-        |x, y| Point2::new(centre.x + x, centre.y + y),
+        |x, y| Point3::new(centre.x + x, centre.y + y, 0.2),
     );
     let mut layer = ObstacleLayer::new(info);
     assert!(layer.observe(&rays) && layer.marked_count() > 100);

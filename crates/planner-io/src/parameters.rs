@@ -365,9 +365,10 @@ pub struct ObstacleLayerParams {
     /// What the topic carries (Nav2's `data_type`): `LaserScan` (default) or `PointCloud2` (a
     /// depth camera, a 3-D lidar).
     pub data_type: ObservationType,
-    /// A cloud's points lower or higher than these (m, their z in the global frame) are not
-    /// obstacles: the floor and the ceiling (Nav2's `min_obstacle_height` and
-    /// `max_obstacle_height`, 0 and 2). Scans are not filtered by height.
+    /// Returns (a cloud's points, a scan's returns) lower or higher than these (m, their z in
+    /// the global frame) are not obstacles and clear nothing: the floor and the ceiling (Nav2's
+    /// `min_obstacle_height` and `max_obstacle_height`, 0 and 2; a level scanner between them
+    /// keeps every return).
     pub min_obstacle_height: f64,
     pub max_obstacle_height: f64,
     /// Returns nearer than this are not marked (m). Default 0.

@@ -19,7 +19,6 @@ use log::{debug, info, warn};
 use nalgebra::{Isometry3, Point3};
 use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
 use patrol_msgs::std_msgs::Header;
-use planner_core::geometry::Point2;
 use planner_core::grid::obstacle_layer::{cloud_rays, scan_rays, ObstacleLayer, RangeLimits, Ray};
 use planner_core::grid::MapInfo;
 use ros2_client::Subscription;
@@ -72,6 +71,8 @@ pub async fn receive(s: Arc<Shared>, readings: Readings) {
         raytrace_min_range: params.raytrace_min_range,
         raytrace_max_range: params.raytrace_max_range,
         inf_is_valid: params.inf_is_valid,
+        min_obstacle_height: params.min_obstacle_height,
+        max_obstacle_height: params.max_obstacle_height,
     };
     let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / params.update_frequency));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -134,7 +135,7 @@ async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Resu
         })?;
     let s = s.clone();
     tokio::task::spawn_blocking(move || {
-        let rays = rays(&s, &reading, &limits, &sensor)?;
+        let rays = rays(&reading, &limits, &sensor)?;
         trace(&s, &rays, info);
         Ok(())
     })
@@ -150,7 +151,6 @@ async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Resu
 /// A reading's rays in the global frame, its sensor at `sensor` there; a malformed reading is
 /// a fault.
 fn rays(
-    s: &Shared,
     reading: &Reading,
     limits: &RangeLimits,
     sensor: &Isometry3<f64>,
@@ -186,21 +186,16 @@ fn rays(
                 f64::from(scan.range_min),
                 f64::from(scan.range_max),
                 limits,
-                |x, y| {
-                    let p = sensor * Point3::new(x, y, 0.0);
-                    Point2::new(p.x, p.y)
-                },
+                |x, y| sensor * Point3::new(x, y, 0.0),
             ))
         }
         Reading::Cloud(cloud) => {
             let points =
                 crate::convert::cloud_points(cloud).map_err(|why| Fault { kind: "cloud", why })?;
-            let p = &s.params.obstacle_layer;
             Ok(cloud_rays(
                 Point3::from(sensor.translation.vector),
                 points.into_iter().map(|q| sensor * q),
                 limits,
-                (p.min_obstacle_height, p.max_obstacle_height),
             ))
         }
     }

@@ -30,6 +30,17 @@ pub struct RangeLimits {
     /// An infinite range means "nothing up to the sensor's maximum range", and clears up to
     /// it, as Nav2's `inf_is_valid`; otherwise it is no reading.
     pub inf_is_valid: bool,
+    /// A return lower or higher than these (m, its z in the map frame) is no obstacle and
+    /// clears nothing (the floor, the ceiling): Nav2's `min_obstacle_height` and
+    /// `max_obstacle_height`, which it applies to a scan's returns as to a cloud's points.
+    pub min_obstacle_height: f64,
+    pub max_obstacle_height: f64,
+}
+
+impl RangeLimits {
+    fn height_ok(&self, z: f64) -> bool {
+        (self.min_obstacle_height..=self.max_obstacle_height).contains(&z)
+    }
 }
 
 /// One ray of an observation, in the map frame.
@@ -49,8 +60,10 @@ pub struct Ray {
 /// a range outside `range_min..range_max` (or NaN) is no reading (a sensor reports its
 /// maximum when nothing is there), an infinite one is just under the sensor's maximum range
 /// with `inf_is_valid` (clearing, marked only if that is within `obstacle_max_range`), else no
-/// reading. Marked: from `obstacle_min_range` up to, not at, `obstacle_max_range`. `to_map` carries a point of the sensor's frame
-/// (x, y in its scan plane) into the map frame; the sensor is at its (0, 0).
+/// reading. Marked: from `obstacle_min_range` up to, not at, `obstacle_max_range`. A return
+/// outside the obstacle heights (a tilted scanner seeing the floor) is dropped whole, as Nav2
+/// drops the scan's projected points. `to_map` carries a point of the sensor's frame (x, y in
+/// its scan plane) into the map frame, in three dimensions; the sensor is at its (0, 0).
 pub fn scan_rays(
     ranges: &[f32],
     angle_min: f64,
@@ -58,8 +71,9 @@ pub fn scan_rays(
     range_min: f64,
     range_max: f64,
     limits: &RangeLimits,
-    to_map: impl Fn(f64, f64) -> Point2,
+    to_map: impl Fn(f64, f64) -> Point3<f64>,
 ) -> Vec<Ray> {
+    let flat = |p: Point3<f64>| Point2::new(p.x, p.y);
     let mut rays = Vec::with_capacity(ranges.len());
     for (i, &r) in ranges.iter().enumerate() {
         let r = f64::from(r);
@@ -73,12 +87,16 @@ pub fn scan_rays(
         };
         let (sin, cos) = (angle_min + i as f64 * increment).sin_cos();
         let at = |d: f64| to_map(d * cos, d * sin);
+        let end = at(r);
+        if !limits.height_ok(end.z) {
+            continue;
+        }
         let mark = r >= limits.obstacle_min_range && r < limits.obstacle_max_range;
         let clear_from = limits.raytrace_min_range.min(r);
         rays.push(Ray {
-            clear_from: at(clear_from),
-            clear_to: at(r.min(limits.raytrace_max_range).max(clear_from)),
-            mark: mark.then(|| at(r)),
+            clear_from: flat(at(clear_from)),
+            clear_to: flat(at(r.min(limits.raytrace_max_range).max(clear_from))),
+            mark: mark.then(|| flat(end)),
         });
     }
     rays
@@ -86,7 +104,7 @@ pub fn scan_rays(
 
 /// The rays of a point cloud (sensor_msgs/PointCloud2 with its points already in the map
 /// frame) as costmap_2d's ObservationBuffer and ObstacleLayer read them: a point whose height
-/// (its z in the map frame) is outside `heights` is dropped, as `min_obstacle_height` and
+/// (its z in the map frame) is outside the limits' obstacle heights is dropped, as `min_obstacle_height` and
 /// `max_obstacle_height` drop the floor and the ceiling; a kept point is marked when its
 /// distance from the sensor's `origin` (in three dimensions, as Nav2 measures it) is within
 /// `obstacle_min_range..obstacle_max_range`, and clears the cells on the plane from the sensor
@@ -96,13 +114,12 @@ pub fn cloud_rays(
     origin: Point3<f64>,
     points: impl IntoIterator<Item = Point3<f64>>,
     limits: &RangeLimits,
-    heights: (f64, f64),
 ) -> Vec<Ray> {
     let flat = |p: &Point3<f64>| Point2::new(p.x, p.y);
     let from = flat(&origin);
     points
         .into_iter()
-        .filter(|p| p.iter().all(|v| v.is_finite()) && (heights.0..=heights.1).contains(&p.z))
+        .filter(|p| p.iter().all(|v| v.is_finite()) && limits.height_ok(p.z))
         .map(|p| {
             let d = (p - origin).norm();
             let mark = d >= limits.obstacle_min_range && d < limits.obstacle_max_range;
@@ -299,12 +316,14 @@ mod tests {
             raytrace_min_range: 0.0,
             raytrace_max_range: 3.0,
             inf_is_valid: false,
+            min_obstacle_height: 0.0,
+            max_obstacle_height: 2.0,
         }
     }
 
-    /// A sensor at (0.55, 1.05) facing +x: its frame's (x, y) in the map.
-    fn sensor(x: f64, y: f64) -> Point2 {
-        Point2::new(0.55 + x, 1.05 + y)
+    /// A sensor at (0.55, 1.05), 0.2 m up, facing +x: its frame's (x, y) in the map.
+    fn sensor(x: f64, y: f64) -> Point3<f64> {
+        Point3::new(0.55 + x, 1.05 + y, 0.2)
     }
 
     fn cell_at(x: f64, y: f64) -> Cell {
@@ -364,6 +383,13 @@ mod tests {
             (inf[0].clear_to.x - sensor(3.0, 0.0).x).abs() < 1e-9,
             "up to raytrace_max_range"
         );
+        // Pitched down 10 degrees, 0.2 m up: returns past 1.15 m are below the floor, dropped
+        // whole (Nav2's min_obstacle_height on the scan's points); the nearer one is kept.
+        let (sin, cos) = 10f64.to_radians().sin_cos();
+        let pitched = |x: f64, y: f64| Point3::new(0.55 + x * cos, 1.05 + y, 0.2 - x * sin);
+        let seen = scan_rays(&[1.0, 1.5], 0.0, 0.0, 0.1, 3.2, &limits(), pitched);
+        assert_eq!(seen.len(), 1);
+        assert!(seen[0].mark.is_some());
         // A wall of marks along the ray's row.
         let mut layer = ObstacleLayer::new(info());
         for x in 0..40 {
@@ -395,19 +421,18 @@ mod tests {
             Point3::new(5.05, 1.05, 0.5),  // 4.5 m ahead: clears up to 3 m, not marked
             Point3::new(f64::NAN, 1.0, 0.5),
         ];
-        let rays = cloud_rays(origin, points, &limits(), (0.0, 2.0));
+        let rays = cloud_rays(origin, points, &limits());
         assert_eq!(rays.len(), 2);
         assert_eq!(rays[0].mark, Some(Point2::new(2.05, 1.05)));
         assert_eq!(rays[1].mark, None);
         assert!((rays[1].clear_to - Point2::new(3.55, 1.05)).norm() < 1e-9);
         // 2.4 m straight ahead but 2.6 m away in three dimensions (the point is 1 m below the
         // sensor): beyond obstacle_max_range, as Nav2 measures it.
-        let low = cloud_rays(
-            origin,
-            [Point3::new(2.95, 1.05, -0.5)],
-            &limits(),
-            (-1.0, 2.0),
-        );
+        let below = RangeLimits {
+            min_obstacle_height: -1.0,
+            ..limits()
+        };
+        let low = cloud_rays(origin, [Point3::new(2.95, 1.05, -0.5)], &below);
         assert_eq!(low[0].mark, None);
         let mut layer = ObstacleLayer::new(info());
         assert!(layer.observe(&rays));
@@ -420,11 +445,11 @@ mod tests {
     fn rays_follow_the_sensor_pose_and_stay_on_the_map() {
         let mut layer = ObstacleLayer::new(info());
         // Facing +y from (0.55, 0.55): a return 1 m ahead is at (0.55, 1.55).
-        let up = |x: f64, y: f64| Point2::new(0.55 - y, 0.55 + x);
+        let up = |x: f64, y: f64| Point3::new(0.55 - y, 0.55 + x, 0.2);
         layer.observe(&scan_rays(&[1.0], 0.0, 0.0, 0.0, 10.0, &limits(), up));
         assert!(layer.is_marked(cell_at(0.55, 1.55)));
         // From off the map, through it and off it again.
-        let outside = |x: f64, y: f64| Point2::new(-1.0 + x, 1.05 + y);
+        let outside = |x: f64, y: f64| Point3::new(-1.0 + x, 1.05 + y, 0.2);
         let long = RangeLimits {
             obstacle_max_range: 10.0,
             raytrace_max_range: 10.0,
