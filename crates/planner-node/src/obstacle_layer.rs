@@ -110,10 +110,9 @@ struct Fault {
 /// One reading into the layer. The layer is made afresh on the current map's grid when the
 /// map's size or origin changed (a new floor: what was seen on the old one is no longer where
 /// it was), as costmap_2d's layers are reset when the map resizes; the same map republished
-/// keeps what was seen. Nothing
-/// happens before the first map, or on a costmap taken as it is. The reading is checked and
-/// traced off the async threads: a cloud of a million points, or a long raytrace range on a
-/// fine map, takes tens of milliseconds.
+/// keeps what was seen. Nothing happens before the first map, or on a costmap taken as it is.
+/// The reading is checked and traced off the async threads: a cloud of a million points, or a
+/// long raytrace range on a fine map, takes tens of milliseconds.
 async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Result<(), Fault> {
     let Some(info) = s
         .map
