@@ -149,15 +149,7 @@ fn obstacle_layer_update(c: &mut Criterion) {
     // A 270-degree scanner (1080 rays, a quarter degree apart) in the middle of the map, every
     // return 2 m away: a ring of marks within obstacle_max_range.
     let centre = info.grid_to_world(Point2::new(1000.0, 1000.0));
-    let limits = RangeLimits {
-        obstacle_min_range: 0.0,
-        obstacle_max_range: 2.5,
-        raytrace_min_range: 0.0,
-        raytrace_max_range: 3.0,
-        inf_is_valid: false,
-        min_obstacle_height: 0.0,
-        max_obstacle_height: 2.0,
-    };
+    let limits = RangeLimits::default();
     let ranges = vec![2.0f32; 1080];
     let increment = 1.5 * std::f64::consts::PI / 1080.0;
     let rays = scan_rays(

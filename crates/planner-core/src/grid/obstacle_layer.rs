@@ -37,6 +37,21 @@ pub struct RangeLimits {
     pub max_obstacle_height: f64,
 }
 
+impl Default for RangeLimits {
+    /// Nav2's ObstacleLayer defaults.
+    fn default() -> Self {
+        Self {
+            obstacle_min_range: 0.0,
+            obstacle_max_range: 2.5,
+            raytrace_min_range: 0.0,
+            raytrace_max_range: 3.0,
+            inf_is_valid: false,
+            min_obstacle_height: 0.0,
+            max_obstacle_height: 2.0,
+        }
+    }
+}
+
 impl RangeLimits {
     fn height_ok(&self, z: f64) -> bool {
         (self.min_obstacle_height..=self.max_obstacle_height).contains(&z)
@@ -310,15 +325,7 @@ mod tests {
     }
 
     fn limits() -> RangeLimits {
-        RangeLimits {
-            obstacle_min_range: 0.0,
-            obstacle_max_range: 2.5,
-            raytrace_min_range: 0.0,
-            raytrace_max_range: 3.0,
-            inf_is_valid: false,
-            min_obstacle_height: 0.0,
-            max_obstacle_height: 2.0,
-        }
+        RangeLimits::default()
     }
 
     /// A sensor at (0.55, 1.05), 0.2 m up, facing +x: its frame's (x, y) in the map.
