@@ -44,10 +44,19 @@ enum Reading {
 }
 
 impl Readings {
-    async fn next(&self) -> Option<Reading> {
+    /// The next reading, or why none could be taken (a sample that does not decode).
+    async fn next(&self) -> Result<Reading, String> {
         match self {
-            Readings::Scans(sub) => sub.async_take().await.ok().map(|(m, _)| Reading::Scan(m)),
-            Readings::Clouds(sub) => sub.async_take().await.ok().map(|(m, _)| Reading::Cloud(m)),
+            Readings::Scans(sub) => sub
+                .async_take()
+                .await
+                .map(|(m, _)| Reading::Scan(m))
+                .map_err(|e| format!("{e:?}")),
+            Readings::Clouds(sub) => sub
+                .async_take()
+                .await
+                .map(|(m, _)| Reading::Cloud(m))
+                .map_err(|e| format!("{e:?}")),
         }
     }
 }
@@ -80,10 +89,11 @@ pub async fn receive(s: Arc<Shared>, readings: Readings) {
     loop {
         tokio::select! {
             taken = readings.next() => {
-                let Some(reading) = taken else {
-                    continue;
+                let observed = match taken {
+                    Ok(reading) => observe(&s, reading, limits).await,
+                    Err(why) => Err(Fault { kind: "decode", why }),
                 };
-                if let Err(Fault { kind, why }) = observe(&s, reading, limits).await {
+                if let Err(Fault { kind, why }) = observed {
                     // One line per kind of fault, not one per reading at the sensor's rate.
                     if faults.insert(kind) {
                         warn!("{}: a reading skipped: {why}", params.topic);
