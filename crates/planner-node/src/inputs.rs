@@ -459,7 +459,7 @@ fn odometry_from_tf(s: &Shared, msg: &TFMessage, base: &str, odom: &str, last: &
         let Some(newest) = newest else {
             return;
         };
-        (tf.latest_up_to(base, odom), newest)
+        (tf.latest_along(&path), newest)
     };
     match latest {
         Ok((t, Some(stamp))) => {

@@ -177,24 +177,12 @@ impl TfBuffer {
         known: impl Fn(&str) -> bool,
         known_names: &str,
     ) -> Result<(&'a str, Isometry3<f64>), TfError> {
-        let mut at = frame;
         let mut to_at = Isometry3::identity();
-        // A tree of n edges has paths of at most n edges; more is a loop.
-        for _ in 0..=self.edges.len() {
-            if known(at) {
-                return Ok((at, to_at));
-            }
-            let Some(edge) = self.edges.get(at) else {
-                return Err(TfError::NotConnected {
-                    frame: frame.to_owned(),
-                    reached: at.to_owned(),
-                    known: known_names.to_owned(),
-                });
-            };
-            to_at = edge.at(at, stamp)? * to_at;
-            at = &edge.parent;
-        }
-        Err(TfError::Loop(frame.to_owned()))
+        let reached = self.climb(frame, known, known_names, |child, edge| {
+            to_at = edge.at(child, stamp)? * to_at;
+            Ok(())
+        })?;
+        Ok((reached, to_at))
     }
 
     /// The frames from `frame` up to its ancestor `ancestor`, `frame` first and `ancestor`
@@ -205,48 +193,64 @@ impl TfBuffer {
         ancestor: &str,
     ) -> Result<Vec<&'a str>, TfError> {
         let mut path = Vec::new();
+        self.climb(
+            frame,
+            |f| f == ancestor,
+            &format!("`{ancestor}`"),
+            |child, _| {
+                path.push(child);
+                Ok(())
+            },
+        )?;
+        Ok(path)
+    }
+
+    /// The transform along `path` (a [`TfBuffer::path_up_to`]'s, from its first frame up to
+    /// the ancestor it ends under) as tf2 looks it up at time 0: at the latest time every
+    /// dynamic edge on it reaches (the others interpolated there), and that time; `None` for
+    /// the time when every edge on it is static.
+    pub fn latest_along(&self, path: &[&str]) -> Result<(Isometry3<f64>, Option<f64>), TfError> {
+        let edges = || path.iter().map(|child| (*child, &self.edges[*child]));
+        let common = edges()
+            .filter_map(|(_, edge)| match &edge.transforms {
+                Transforms::Dynamic(kept) => kept.back().map(|(stamp, _)| *stamp),
+                Transforms::Static(_) => None,
+            })
+            .reduce(f64::min);
+        let mut transform = Isometry3::identity();
+        for (child, edge) in edges() {
+            transform = edge.at(child, common.unwrap_or(0.0))? * transform;
+        }
+        Ok((transform, common))
+    }
+
+    /// The one walk up the tree: from `frame` up its parents to the first frame `stop`
+    /// accepts (`frame` itself included), `visit` called with each edge passed (its child
+    /// frame first); returns the frame reached. An unconnected frame or a loop is an error.
+    fn climb<'a>(
+        &'a self,
+        frame: &'a str,
+        stop: impl Fn(&str) -> bool,
+        stop_names: &str,
+        mut visit: impl FnMut(&'a str, &'a Edge) -> Result<(), TfError>,
+    ) -> Result<&'a str, TfError> {
         let mut at = frame;
         // A tree of n edges has paths of at most n edges; more is a loop.
         for _ in 0..=self.edges.len() {
-            if at == ancestor {
-                return Ok(path);
+            if stop(at) {
+                return Ok(at);
             }
             let Some(edge) = self.edges.get(at) else {
                 return Err(TfError::NotConnected {
                     frame: frame.to_owned(),
                     reached: at.to_owned(),
-                    known: format!("`{ancestor}`"),
+                    known: stop_names.to_owned(),
                 });
             };
-            path.push(at);
+            visit(at, edge)?;
             at = &edge.parent;
         }
         Err(TfError::Loop(frame.to_owned()))
-    }
-
-    /// The transform from `frame` up to its ancestor `ancestor` as tf2 looks it up at time 0:
-    /// at the latest time every dynamic edge between them reaches (the others interpolated
-    /// there), and that time; `None` for the time when every edge between them is static.
-    pub fn latest_up_to(
-        &self,
-        frame: &str,
-        ancestor: &str,
-    ) -> Result<(Isometry3<f64>, Option<f64>), TfError> {
-        let common = self
-            .path_up_to(frame, ancestor)?
-            .iter()
-            .filter_map(|child| match &self.edges[*child].transforms {
-                Transforms::Dynamic(kept) => kept.back().map(|(stamp, _)| *stamp),
-                Transforms::Static(_) => None,
-            })
-            .reduce(f64::min);
-        let (_, transform) = self.to_known_frame(
-            frame,
-            common.unwrap_or(0.0),
-            |f| f == ancestor,
-            &format!("`{ancestor}`"),
-        )?;
-        Ok((transform, common))
     }
 }
 
@@ -437,7 +441,7 @@ mod tests {
         )
         .unwrap();
         assert!(matches!(
-            b.latest_up_to("base_link", "odom"),
+            b.path_up_to("base_link", "odom"),
             Err(TfError::NotConnected { .. })
         ));
         b.insert(
@@ -455,13 +459,20 @@ mod tests {
             ["base_link", "base_footprint"]
         );
         assert!(b.path_up_to("odom", "odom").unwrap().is_empty());
+        fn latest(
+            b: &TfBuffer,
+            frame: &str,
+            ancestor: &str,
+        ) -> Result<(Isometry3<f64>, Option<f64>), TfError> {
+            b.latest_along(&b.path_up_to(frame, ancestor)?)
+        }
         let pose = |(t, stamp): (Isometry3<f64>, Option<f64>)| {
             (
                 [t.translation.x, t.translation.y, t.rotation.angle()],
                 stamp,
             )
         };
-        let (at, stamp) = pose(b.latest_up_to("base_link", "odom").unwrap());
+        let (at, stamp) = pose(latest(&b, "base_link", "odom").unwrap());
         assert!(near(at, [2.0, 0.1, FRAC_PI_2]), "{at:?}");
         assert_eq!(stamp, Some(5.02));
         // map -> odom from a localizer at 5.01 s and 4.99 s: the chain's latest common time is
@@ -470,7 +481,7 @@ mod tests {
             .unwrap();
         b.insert(&planar("map", "odom", 5.01, 0.0, 10.0, 0.0), false)
             .unwrap();
-        let (at, stamp) = pose(b.latest_up_to("base_link", "map").unwrap());
+        let (at, stamp) = pose(latest(&b, "base_link", "map").unwrap());
         assert_eq!(stamp, Some(5.01));
         let half_turn = FRAC_PI_2 / 2.0;
         assert!(
@@ -486,7 +497,7 @@ mod tests {
         );
         // Static edges only: no time.
         assert_eq!(
-            pose(b.latest_up_to("base_link", "base_footprint").unwrap()).1,
+            pose(latest(&b, "base_link", "base_footprint").unwrap()).1,
             None
         );
     }
