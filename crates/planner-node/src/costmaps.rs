@@ -287,25 +287,10 @@ async fn clear(s: &Arc<Shared>, region: Region) -> Result<Option<usize>, String>
     };
     // Off the async threads: the scans' task holds the layer while it traces.
     let shared = s.clone();
-    tokio::task::spawn_blocking(move || clear_layer(&shared, square))
+    let counts = tokio::task::spawn_blocking(move || shared.clear_obstacles(square))
         .await
-        .map_err(|e| e.to_string())
-}
-
-/// [`clear`]'s work on the layer: `square` (centre, side, inside) or everything.
-fn clear_layer(s: &Shared, square: Option<(Point2, f64, bool)>) -> Option<usize> {
-    let left = {
-        let mut obstacles = s.obstacles.lock().expect("lock");
-        let (layer, changed) = &mut *obstacles;
-        let layer = layer.as_mut()?;
-        let cleared = match square {
-            None => layer.clear_all(),
-            Some((center, side, inside)) => layer.clear_square(center, side, inside),
-        };
-        *changed |= cleared;
-        cleared.then(|| layer.marked_count())
-    };
-    // Laid now (unless the scans' task just did), not at the layer's next update.
-    s.lay_obstacles();
-    left
+        .map_err(|e| e.to_string())?;
+    Ok(counts
+        .filter(|(before, after)| before != after)
+        .map(|(_, after)| after))
 }

@@ -376,9 +376,11 @@ impl RoundRobin {
             let Step::Move(behavior) = step else {
                 // Off the async threads: the scans' task holds the layer while it traces.
                 let shared = s.clone();
-                let had = tokio::task::spawn_blocking(move || shared.forget_obstacles())
+                let had = tokio::task::spawn_blocking(move || shared.clear_obstacles(None))
                     .await
-                    .unwrap_or(0);
+                    .ok()
+                    .flatten()
+                    .map_or(0, |(before, _)| before);
                 if had == 0 {
                     // Nothing seen to clear cannot help: the next behaviour, in this recovery.
                     failures.push("nothing seen to clear".to_string());

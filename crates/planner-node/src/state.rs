@@ -461,21 +461,26 @@ impl Shared {
         Some(marked)
     }
 
-    /// Forgets every obstacle the scans marked and lays the empty layer on the grid at once (a
-    /// recovery's clearing, as Nav2's trees clear both costmaps). Returns how many cells were
-    /// marked.
-    pub fn forget_obstacles(&self) -> usize {
-        let had = {
+    /// Clears the obstacle layer, everything or a `square` (centre in the global frame, side in
+    /// m, inside it or all but it: costmap_2d's clearing regions), and lays it on the grid at
+    /// once, not at the layer's next update: a recovery's clearing, as Nav2's trees clear both
+    /// costmaps, and the clearing services'. Returns how many cells were marked before and are
+    /// after; `None` before any reading made the layer. Blocking: the scans' task holds the
+    /// layer while it traces.
+    pub fn clear_obstacles(&self, square: Option<(Point2, f64, bool)>) -> Option<(usize, usize)> {
+        let counts = {
             let mut obstacles = self.obstacles.lock().expect("lock");
             let (layer, changed) = &mut *obstacles;
-            let had = layer.as_ref().map_or(0, |l| l.marked_count());
-            if let Some(layer) = layer.as_mut() {
-                *changed |= layer.clear_all();
-            }
-            had
+            let layer = layer.as_mut()?;
+            let before = layer.marked_count();
+            *changed |= match square {
+                None => layer.clear_all(),
+                Some((center, side, inside)) => layer.clear_square(center, side, inside),
+            };
+            (before, layer.marked_count())
         };
         self.lay_obstacles();
-        had
+        Some(counts)
     }
 
     /// The limits the follower drives a plan under: the chassis' (`twist_limits`), the top speed
@@ -567,15 +572,15 @@ impl Shared {
     /// a robot's driver, or robot_localization's filter fusing the wheels with an IMU while
     /// `/odom` stays the raw wheel odometry. So the transform is the pose while it keeps coming
     /// (each within `pose_timeout`), and `/odom` is used only without it (a simulation or a
-    /// driver that publishes no TF). Returns whether the pose was taken.
-    pub fn odometry(&self, source: OdometrySource, stamp: f64, in_odom: Pose2) -> bool {
+    /// driver that publishes no TF).
+    pub fn odometry(&self, source: OdometrySource, stamp: f64, in_odom: Pose2) {
         {
             let mut last = self.odometry_source.lock().expect("lock");
             let (used, tf_at) = &mut *last;
             if source == OdometrySource::Tf {
                 *tf_at = Some(Instant::now());
             } else if tf_at.is_some_and(|t| t.elapsed().as_secs_f64() <= self.params.pose_timeout) {
-                return false;
+                return;
             }
             if *used != Some(source) {
                 let (base, odom) = (&self.params.robot_base_frame, &self.params.odom_frame);
@@ -602,7 +607,6 @@ impl Shared {
         *self.start.write().expect("lock") = Some((in_map, Instant::now()));
         *self.odom.write().expect("lock") = Some((in_map, Instant::now()));
         *self.odom_local.write().expect("lock") = Some(in_odom);
-        true
     }
 
     /// The robot's pose (global frame) from odometry no older than `pose_timeout`: what the
