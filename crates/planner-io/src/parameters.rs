@@ -9,6 +9,7 @@ use chassis::follower::FollowerParams;
 use chassis::limits::TwistLimits;
 use chassis::progress::ProgressParams;
 use planner_core::config::PlannerConfig;
+use planner_core::grid::obstacle_layer::RangeLimits;
 use planner_core::PlannerName;
 use ros_parameters::{field_names as keys, Layers, WILDCARD};
 pub use ros_parameters::{ParameterOverride, ParameterSource};
@@ -399,20 +400,37 @@ pub enum ObservationType {
 }
 
 impl Default for ObstacleLayerParams {
+    /// Nav2's defaults: the ranges and heights planner_core keeps for its ObstacleLayer.
     fn default() -> Self {
+        let nav2 = RangeLimits::default();
         Self {
             enabled: true,
             topic: "scan".into(),
             data_type: ObservationType::LaserScan,
-            min_obstacle_height: 0.0,
-            max_obstacle_height: 2.0,
-            obstacle_min_range: 0.0,
-            obstacle_max_range: 2.5,
-            raytrace_min_range: 0.0,
-            raytrace_max_range: 3.0,
-            inf_is_valid: false,
+            min_obstacle_height: nav2.min_obstacle_height,
+            max_obstacle_height: nav2.max_obstacle_height,
+            obstacle_min_range: nav2.obstacle_min_range,
+            obstacle_max_range: nav2.obstacle_max_range,
+            raytrace_min_range: nav2.raytrace_min_range,
+            raytrace_max_range: nav2.raytrace_max_range,
+            inf_is_valid: nav2.inf_is_valid,
             footprint_clearing_enabled: true,
             update_frequency: 1.0,
+        }
+    }
+}
+
+impl ObstacleLayerParams {
+    /// How the layer reads its sensor's returns.
+    pub fn range_limits(&self) -> RangeLimits {
+        RangeLimits {
+            obstacle_min_range: self.obstacle_min_range,
+            obstacle_max_range: self.obstacle_max_range,
+            raytrace_min_range: self.raytrace_min_range,
+            raytrace_max_range: self.raytrace_max_range,
+            inf_is_valid: self.inf_is_valid,
+            min_obstacle_height: self.min_obstacle_height,
+            max_obstacle_height: self.max_obstacle_height,
         }
     }
 }

@@ -74,15 +74,7 @@ impl Reading {
 /// when it changed, at most at `update_frequency` ([`Shared::lay_obstacles`]).
 pub async fn receive(s: Arc<Shared>, readings: Readings) {
     let params = s.params.obstacle_layer.clone();
-    let limits = RangeLimits {
-        obstacle_min_range: params.obstacle_min_range,
-        obstacle_max_range: params.obstacle_max_range,
-        raytrace_min_range: params.raytrace_min_range,
-        raytrace_max_range: params.raytrace_max_range,
-        inf_is_valid: params.inf_is_valid,
-        min_obstacle_height: params.min_obstacle_height,
-        max_obstacle_height: params.max_obstacle_height,
-    };
+    let limits = params.range_limits();
     let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / params.update_frequency));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut faults = HashSet::new();

@@ -56,6 +56,21 @@ impl RangeLimits {
     fn height_ok(&self, z: f64) -> bool {
         (self.min_obstacle_height..=self.max_obstacle_height).contains(&z)
     }
+
+    /// One ray to a return at `end` (the map's plane), `length` m from the sensor along the
+    /// plane, whose point `d` m out is `along(d)`: it clears from `raytrace_min_range` to
+    /// `raytrace_max_range`, within its length, and marks `end` when `range` (the return's
+    /// distance as Nav2 gates it) is from `obstacle_min_range` up to, not at,
+    /// `obstacle_max_range`.
+    fn ray(&self, length: f64, range: f64, end: Point2, along: impl Fn(f64) -> Point2) -> Ray {
+        let clear_from = self.raytrace_min_range.min(length);
+        let mark = range >= self.obstacle_min_range && range < self.obstacle_max_range;
+        Ray {
+            clear_from: along(clear_from),
+            clear_to: along(length.min(self.raytrace_max_range).max(clear_from)),
+            mark: mark.then_some(end),
+        }
+    }
 }
 
 /// One ray of an observation, in the map frame.
@@ -106,13 +121,7 @@ pub fn scan_rays(
         if !limits.height_ok(end.z) {
             continue;
         }
-        let mark = r >= limits.obstacle_min_range && r < limits.obstacle_max_range;
-        let clear_from = limits.raytrace_min_range.min(r);
-        rays.push(Ray {
-            clear_from: flat(at(clear_from)),
-            clear_to: flat(at(r.min(limits.raytrace_max_range).max(clear_from))),
-            mark: mark.then(|| flat(end)),
-        });
+        rays.push(limits.ray(r, r, flat(end), |d| flat(at(d))));
     }
     rays
 }
@@ -136,8 +145,6 @@ pub fn cloud_rays(
         .into_iter()
         .filter(|p| p.iter().all(|v| v.is_finite()) && limits.height_ok(p.z))
         .map(|p| {
-            let d = (p - origin).norm();
-            let mark = d >= limits.obstacle_min_range && d < limits.obstacle_max_range;
             let towards = flat(&p) - from;
             let length = towards.norm();
             let along = |t: f64| {
@@ -147,12 +154,7 @@ pub fn cloud_rays(
                     from
                 }
             };
-            let clear_from = limits.raytrace_min_range.min(length);
-            Ray {
-                clear_from: along(clear_from),
-                clear_to: along(limits.raytrace_max_range.max(clear_from)),
-                mark: mark.then(|| flat(&p)),
-            }
+            limits.ray(length, (p - origin).norm(), flat(&p), along)
         })
         .collect()
 }
