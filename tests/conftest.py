@@ -300,6 +300,44 @@ def stamped(x, y, yaw=0.0, frame="map"):
     return p
 
 
+def yaw_quaternion(yaw):
+    """The (x, y, z, w) of a turn by `yaw` about z."""
+    return 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)
+
+
+def transform(parent, child, xyz=(0.0, 0.0, 0.0), q=(0.0, 0.0, 0.0, 1.0), stamp=0.0):
+    """geometry_msgs/TransformStamped `parent` -> `child`: translation `xyz`, rotation `q`
+    (x, y, z, w), `stamp` in seconds or a builtin_interfaces/Time."""
+    from geometry_msgs.msg import TransformStamped
+
+    t = TransformStamped()
+    t.header.frame_id, t.child_frame_id = parent, child
+    if isinstance(stamp, (int, float)):
+        t.header.stamp.sec, t.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
+    else:
+        t.header.stamp = stamp
+    (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z) = map(float, xyz)
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w) = q
+    return t
+
+
+# tf2's listener QoS: /tf reliable and volatile, /tf_static reliable and transient local.
+TF = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+TF_STATIC = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def static_transforms(ros, *transforms):
+    """Latches `transforms` on /tf_static, as a static broadcaster does, once the node reads
+    it; the test node keeps the publisher, and so the transforms, until it is destroyed or
+    destroys it (the returned publisher)."""
+    from tf2_msgs.msg import TFMessage
+
+    pub = ros.node.create_publisher(TFMessage, "/tf_static", TF_STATIC)
+    ros.wait_matched(pub, "/tf_static")
+    pub.publish(TFMessage(transforms=list(transforms)))
+    return pub
+
+
 def initial_pose(x, y, frame="map"):
     p = PoseWithCovarianceStamped()
     p.header.frame_id = frame

@@ -19,13 +19,10 @@ import rclpy
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetPlan
-from geometry_msgs.msg import TransformStamped
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from tf2_msgs.msg import TFMessage
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 
-from conftest import LATCHED, ROOT, Ros, call_service, domain_id, initial_pose, stamped, start_node, stop_binary
+from conftest import LATCHED, ROOT, Ros, call_service, domain_id, initial_pose, stamped, start_node, static_transforms, stop_binary, transform
 from test_node import grid_msg
 
 TOPIC = "/global_costmap/costmap"
@@ -275,13 +272,7 @@ def test_a_keepout_mask_is_laid_over_the_nodes_own_costmap(tmp_path):
         mask_pub.publish(moved)
         code, why, _ = ros.wait_code(i, "INVALID_INPUT")
         assert "not placed yet" in why and "`zones`" in why, why
-        static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
-            depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-        ros.wait_matched(static, "/tf_static")
-        t = TransformStamped()
-        t.header.frame_id, t.child_frame_id = "map", "zones"
-        t.transform.translation.x, t.transform.rotation.w = -2.0, 1.0
-        static.publish(TFMessage(transforms=[t]))
+        static_transforms(ros, transform("map", "zones", (-2.0, 0.0, 0.0)))
 
         def round_moved_zone():
             poses = plan()

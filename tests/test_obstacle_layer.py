@@ -12,13 +12,11 @@ import math
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import TransformStamped
 from nav_msgs.srv import GetPlan
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
-from tf2_msgs.msg import TFMessage
 
-from conftest import ROOT, call_service, initial_pose, node_rig, stamped
+from conftest import ROOT, call_service, initial_pose, node_rig, stamped, static_transforms, transform
 from test_node import grid_msg
 
 # A 6 m x 3 m room (0.1 m cells, origin at 0, 0), empty. The robot at (0.5, 1.5) facing +x, its
@@ -52,15 +50,8 @@ class Laser:
     def __init__(self, ros):
         self.ros, self.block, self.bad, self.on, self.span = ros, True, False, True, BLOCK_Y
         self.pub = ros.node.create_publisher(LaserScan, "/scan", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
-        static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
-            depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-        for pub, what in [(self.pub, "/scan"), (static, "/tf_static")]:
-            ros.wait_matched(pub, what)
-        t = TransformStamped()
-        t.header.frame_id, t.child_frame_id = "base_link", "laser"
-        t.transform.translation.x, t.transform.translation.z = 0.1, 0.2
-        t.transform.rotation.w = 1.0
-        static.publish(TFMessage(transforms=[t]))
+        ros.wait_matched(self.pub, "/scan")
+        static_transforms(ros, transform("base_link", "laser", (0.1, 0.0, 0.2)))
         ros.node.create_timer(1.0 / RATE_HZ, self.tick)
 
     def tick(self):
@@ -198,16 +189,9 @@ def test_a_point_cloud_marks_what_lies_between_the_floor_and_the_ceiling(tmp_pat
     (raytraced on the plane), and the plan goes straight."""
     with room(tmp_path, "{update_frequency: 5.0, data_type: PointCloud2, topic: /camera/points}") as ros:
         pub = ros.node.create_publisher(PointCloud2, "/camera/points", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
-        static = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
-            depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-        for p, what in [(pub, "/camera/points"), (static, "/tf_static")]:
-            ros.wait_matched(p, what)
+        ros.wait_matched(pub, "/camera/points")
         camera = (LASER_X, START[1], 0.5)  # in the map: 0.1 m ahead of the robot, 0.5 m up
-        t = TransformStamped()
-        t.header.frame_id, t.child_frame_id = "base_link", "camera"
-        t.transform.translation.x, t.transform.translation.z = 0.1, 0.5
-        t.transform.rotation.w = 1.0
-        static.publish(TFMessage(transforms=[t]))
+        static_transforms(ros, transform("base_link", "camera", (0.1, 0.0, 0.5)))
         steps = np.linspace(0.0, 1.0, 21)
         block = [(BLOCK_X[0], BLOCK_Y[0] + (BLOCK_Y[1] - BLOCK_Y[0]) * a, 0.1 + 0.9 * b) for a in steps for b in steps]
         ceiling = [(1.2, 3.0 * a, 2.3) for a in steps]  # 2.4 m from the camera at most

@@ -9,13 +9,11 @@ import math
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from nav_msgs.srv import GetPlan
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from tf2_msgs.msg import TFMessage
 
-from conftest import call_service, node_rig, stamped
+from conftest import TF, call_service, node_rig, stamped, static_transforms, transform, yaw_quaternion
 from test_node import grid_msg
 
 # A 6 m x 3 m room (0.1 m cells, origin at 0, 0), empty.
@@ -27,14 +25,6 @@ GOAL = (5.0, 2.5)
 RATE_HZ = 20
 
 
-def transform(parent, child, x, y, yaw, stamp):
-    t = TransformStamped()
-    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
-    t.transform.translation.x, t.transform.translation.y = float(x), float(y)
-    t.transform.rotation.z, t.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-    return t
-
-
 class Odometries:
     """Publishes, at RATE_HZ, /odom at ODOM_POSE always, `odom -> base_footprint` at FOOTPRINT
     while `tf_on`, and a cart's `map -> cart` while `cart_on`."""
@@ -42,13 +32,10 @@ class Odometries:
     def __init__(self, ros):
         self.ros, self.tf_on, self.cart_on = ros, False, False
         self.odom_pub = ros.node.create_publisher(Odometry, "/odom", 10)
-        self.tf_pub = ros.node.create_publisher(TFMessage, "/tf", QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
-        self.static_pub = ros.node.create_publisher(TFMessage, "/tf_static", QoSProfile(
-            depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-        for pub, what in [(self.odom_pub, "/odom"), (self.tf_pub, "/tf"), (self.static_pub, "/tf_static")]:
+        self.tf_pub = ros.node.create_publisher(TFMessage, "/tf", TF)
+        for pub, what in [(self.odom_pub, "/odom"), (self.tf_pub, "/tf")]:
             ros.wait_matched(pub, what)
-        now = ros.node.get_clock().now().to_msg()
-        self.static_pub.publish(TFMessage(transforms=[transform("base_footprint", "base_link", LINK_OFFSET, 0.0, 0.0, now)]))
+        static_transforms(ros, transform("base_footprint", "base_link", (LINK_OFFSET, 0.0, 0.0)))
         ros.node.create_timer(1.0 / RATE_HZ, self.tick)
 
     def tick(self):
@@ -61,9 +48,10 @@ class Odometries:
         self.odom_pub.publish(m)
         moved = []
         if self.tf_on:
-            moved.append(transform("odom", "base_footprint", *FOOTPRINT, now))
+            x, y, yaw = FOOTPRINT
+            moved.append(transform("odom", "base_footprint", (x, y, 0.0), yaw_quaternion(yaw), now))
         if self.cart_on:
-            moved.append(transform("map", "cart", 2.0, 2.0, 0.0, now))
+            moved.append(transform("map", "cart", (2.0, 2.0, 0.0), stamp=now))
         if moved:
             self.tf_pub.publish(TFMessage(transforms=moved))
 

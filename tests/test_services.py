@@ -15,7 +15,7 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.srv import GetPlan
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from conftest import ROOT, call_service, initial_pose, stamped
+from conftest import ROOT, TF, TF_STATIC, call_service, initial_pose, stamped, transform, yaw_quaternion
 from test_node import ORIGIN, RES, H, W, assert_collision_free, plan_to, use_test_map, world
 
 MAKE_PLAN = "/patrol_planner/make_plan"
@@ -253,22 +253,12 @@ def test_goals_in_frames_of_the_tf_tree_are_placed_through_it(ros):
     around it) or at the latest for stamp 0. A stamp the transforms do not reach, and a frame
     nothing publishes, are TF_ERROR once transform_tolerance has passed. The robot is at
     world(1, 1) facing +x (use_test_map); each goal below is world(11.5, 7) in its frame."""
-    from geometry_msgs.msg import TransformStamped
     from tf2_msgs.msg import TFMessage
 
     use_test_map(ros)
-    latched = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    static_pub = ros.node.create_publisher(TFMessage, "/tf_static", latched)
-    tf_pub = ros.node.create_publisher(TFMessage, "/tf", QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
+    static_pub = ros.node.create_publisher(TFMessage, "/tf_static", TF_STATIC)
+    tf_pub = ros.node.create_publisher(TFMessage, "/tf", TF)
     target = world(11.5, 7.0)
-
-    def transform(parent, child, xyz, q=(0.0, 0.0, 0.0, 1.0), stamp=0.0):
-        t = TransformStamped()
-        t.header.frame_id, t.child_frame_id = parent, child
-        t.header.stamp.sec, t.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
-        (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z) = xyz
-        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w) = q
-        return t
 
     def plan_in(frame, x, y, z=0.0, stamp=0.0):
         goal = stamped(x, y, frame=frame)
@@ -291,7 +281,7 @@ def test_goals_in_frames_of_the_tf_tree_are_placed_through_it(ros):
         static_pub.publish(TFMessage(transforms=[
             transform("base_link", "mast_camera", (0.2, 0.0, 0.5)),
             transform("mast_camera", "mast_camera_optical", (0.0, 0.0, 0.0), (-0.5, 0.5, -0.5, 0.5)),
-            transform("map", "dock", (*world(11.5, 6.0), 0.0), (0.0, 0.0, math.sin(dock_yaw / 2), math.cos(dock_yaw / 2))),
+            transform("map", "dock", (*world(11.5, 6.0), 0.0), yaw_quaternion(dock_yaw)),
         ]))
         # The dock faces +y: one metre ahead of it is the target.
         ros.spin_until(lambda: ends_at_target(plan_in("dock", 1.0, 0.0)), 20, "a goal in `dock` planned to its place")
