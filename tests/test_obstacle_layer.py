@@ -6,7 +6,7 @@ straight again. Returns beyond obstacle_max_range (2.5 m) mark nothing; a scan w
 are not finite is skipped and the node goes on. costmap_2d's clearing services clear what the
 scans marked, in their regions (a square round the robot, all but it), at once; so does a
 recovery, the first of Nav2's round robin. A depth camera's sensor_msgs/PointCloud2 works the
-same way, its floor and ceiling dropped by height."""
+same way, its floor and ceiling dropped by height; a scanner and a camera mark one layer."""
 import contextlib
 import math
 
@@ -180,18 +180,48 @@ def test_a_recovery_clears_what_the_scans_marked(rig):
     assert "recovery: the obstacles seen cleared" in log, log[-2000:]
 
 
-def test_a_point_cloud_marks_what_lies_between_the_floor_and_the_ceiling(tmp_path):
-    """A depth camera (`camera`, 0.5 m up on the robot) sees the block's face as points from
-    0.1 m to 1.0 m high, a ceiling 2.3 m up across the whole room 0.6 m ahead (within
-    obstacle_max_range: only max_obstacle_height, 2 m, keeps it from closing the room) and the
-    floor up to the block, 2 cm below the robot's plane (only min_obstacle_height, 0, keeps it
-    off the straight route): the plan goes round the block. Points far beyond it clear it
-    (raytraced on the plane), and the plan goes straight."""
-    with room(tmp_path, "{update_frequency: 5.0, data_type: PointCloud2, topic: /camera/points}") as ros:
-        pub = ros.node.create_publisher(PointCloud2, "/camera/points", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
-        ros.wait_matched(pub, "/camera/points")
-        camera = (LASER_X, START[1], 0.5)  # in the map: 0.1 m ahead of the robot, 0.5 m up
+class Camera:
+    """A depth camera 0.1 m ahead of the robot and 0.5 m up (`camera` on /tf_static), publishing
+    at RATE_HZ the map points in `points` as a sensor_msgs/PointCloud2 on /camera/points in
+    `frame` (its own unless told otherwise), while `on`."""
+
+    def __init__(self, ros, frame="camera"):
+        self.ros, self.frame, self.on, self.points = ros, frame, True, []
+        self.pub = ros.node.create_publisher(PointCloud2, "/camera/points", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
+        ros.wait_matched(self.pub, "/camera/points")
+        self.at = (LASER_X, START[1], 0.5)  # in the map
         static_transforms(ros, transform("base_link", "camera", (0.1, 0.0, 0.5)))
+        ros.node.create_timer(1.0 / RATE_HZ, self.tick)
+
+    def tick(self):
+        if not self.on:
+            return
+        m = PointCloud2()
+        m.header.stamp = self.ros.node.get_clock().now().to_msg()
+        m.header.frame_id = self.frame
+        in_camera = np.array(self.points, dtype="<f4").reshape(-1, 3) - np.array(self.at, dtype="<f4")
+        m.height, m.width = 1, len(in_camera)
+        m.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
+        m.is_bigendian, m.point_step, m.row_step, m.is_dense = False, 12, 12 * len(in_camera), True
+        m.data = in_camera.tobytes()
+        self.pub.publish(m)
+
+
+def goes_round(ros):
+    p = plan(ros)
+    return p if (swerve(p) or 0) > 0.5 else None
+
+
+def test_a_point_cloud_marks_what_lies_between_the_floor_and_the_ceiling(tmp_path):
+    """A depth camera, the layer's one source (Nav2's `observation_sources: camera` and its
+    block), sees the block's face as points from 0.1 m to 1.0 m high, a ceiling 2.3 m up across
+    the whole room 0.6 m ahead (within obstacle_max_range: only max_obstacle_height, 2 m, keeps
+    it from closing the room) and the floor up to the block, 2 cm below the robot's plane (only
+    min_obstacle_height, 0, keeps it off the straight route): the plan goes round the block.
+    Points far beyond it clear it (raytraced on the plane), and the plan goes straight."""
+    layer = "{update_frequency: 5.0, observation_sources: camera, camera: {topic: /camera/points, data_type: PointCloud2}}"
+    with room(tmp_path, layer) as ros:
+        camera = Camera(ros)
         steps = np.linspace(0.0, 1.0, 21)
         block = [(BLOCK_X[0], BLOCK_Y[0] + (BLOCK_Y[1] - BLOCK_Y[0]) * a, 0.1 + 0.9 * b) for a in steps for b in steps]
         ceiling = [(1.2, 3.0 * a, 2.3) for a in steps]  # 2.4 m from the camera at most
@@ -199,27 +229,61 @@ def test_a_point_cloud_marks_what_lies_between_the_floor_and_the_ceiling(tmp_pat
         floor = [(LASER_X + 2.0 * a, START[1], -0.02) for a in steps[1:]]
         # Far beyond the block, spread so that the rays to them cross all of it.
         beyond = [(5.9, 0.2 + 2.6 * a, 0.5) for a in steps]
-        seen = {"points": block + ceiling + floor}
-
-        def publish():
-            m = PointCloud2()
-            m.header.stamp = ros.node.get_clock().now().to_msg()
-            m.header.frame_id = "camera"
-            in_camera = np.array(seen["points"], dtype="<f4") - np.array(camera, dtype="<f4")
-            m.height, m.width = 1, len(in_camera)
-            m.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
-            m.is_bigendian, m.point_step, m.row_step, m.is_dense = False, 12, 12 * len(in_camera), True
-            m.data = in_camera.tobytes()
-            pub.publish(m)
-
-        ros.node.create_timer(1.0 / RATE_HZ, publish)
-
-        def goes_round():
-            p = plan(ros)
-            return p if (swerve(p) or 0) > 0.5 else None
-
-        around = ros.spin_until(goes_round, 30, "a plan round the block the camera sees")
+        camera.points = block + ceiling + floor
+        around = ros.spin_until(lambda: goes_round(ros), 30, "a plan round the block the camera sees")
         assert not crosses_block(around)
-        seen["points"] = beyond
+        camera.points = beyond
         ros.spin_until(lambda: (lambda p: swerve(p) is not None and swerve(p) < 0.05)(plan(ros)), 30,
                        "a straight plan once the camera sees past where the block was")
+
+
+def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
+    """Two sources, as a Nav2 block lists them (`observation_sources: scan camera`): the laser
+    sees the block across the direct route, and the plan goes round it on one side; then the
+    camera, a source that marks and does not clear, whose driver stamps its clouds in the wrong
+    frame (`sensor_frame: camera` corrects it) and whose obstacle_max_range (4 m) reaches past
+    the laser's raytrace range, sees a wall 3.3 m ahead across that side. The plan goes round
+    the other side: both sources' marks are in the one layer the grid is made from, and the
+    camera's rays, which cross the block, leave the laser's marks as they are. When the
+    camera goes quiet beyond its expected_update_rate the log says so, and its wall stays."""
+    from nav2_msgs.srv import GetCostmap
+
+    layer = ("{update_frequency: 5.0, observation_sources: scan camera, "
+             "camera: {topic: /camera/points, data_type: PointCloud2, clearing: false, "
+             "sensor_frame: camera, obstacle_max_range: 4.0, expected_update_rate: 0.5}}")
+    with room(tmp_path, layer) as ros:
+        laser = Laser(ros)
+        camera = Camera(ros, frame="camera_driver_typo")
+        first = ros.spin_until(lambda: goes_round(ros), 30, "a plan round the block the laser sees")
+        # The laser stops: its block stays marked, and only a camera that cleared could clear it.
+        laser.on = False
+        ros.spin_for(0.3)
+        side = 1 if max(y for _, y in first) > START[1] + 0.5 else -1
+        # A wall 0.2 m thick at x 3.9-4.1 m (past the laser's 3 m: it cannot clear it), 0.1 m
+        # to 1.0 m high, from the room's wall on the plan's side to 0.3 m past the middle: the
+        # plan's way past the block is shut (inflated, it meets the block's inflation). The
+        # camera's rays to it cross the block: were they to clear, the block would go.
+        edge, far = (1.2, 3.0) if side > 0 else (0.0, 1.8)
+        steps = np.linspace(0.0, 1.0, 21)
+        camera.points = [(3.9 + 0.2 * t, edge + (far - edge) * a, 0.1 + 0.9 * b)
+                         for t in (0.0, 0.5, 1.0) for a in steps for b in steps]
+
+        def other_side():
+            p = goes_round(ros)
+            return p if p and all((y - START[1]) * side < 0.5 for _, y in p) else None
+
+        other = ros.spin_until(other_side, 30, "a plan round the block on the other side of the camera's wall")
+        assert not crosses_block(other)
+        # getGlobalCostmap(): the laser's block face (x 2.8 m, cells 27-28) lethal all along,
+        # where the camera's rays to its wall crossed it; the wall (cells 39-40) lethal.
+        cost = np.array(call_service(ros, GetCostmap, "global_costmap/get_costmap", GetCostmap.Request()).map.data,
+                        dtype=np.uint8).reshape(30, 60)
+        assert (cost[11:20, 27:29] == 254).any(axis=1).all(), cost[8:23, 26:30]
+        assert (cost[round((edge + far) * 5), 39:41] == 254).any()
+        log = ROOT / "target" / "patrol_planner_obstacle_layer_test.log"
+        quiet = "obstacle_layer.camera (`/camera/points`): no reading for"
+        before = log.read_text().count(quiet)  # the node may have started before the camera
+        camera.on = False
+        ros.spin_until(lambda: log.read_text().count(quiet) > before, 10,
+                       "the log's word that the camera went quiet")
+        assert other_side(), "the camera's wall stays while nothing clears it"

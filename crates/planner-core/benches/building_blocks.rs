@@ -15,7 +15,7 @@ use nalgebra::Point3;
 use ordered_float::OrderedFloat;
 use planner_core::geometry::{Cell, Point2};
 use planner_core::grid::inflation::{InflationConfig, PlanningGrid};
-use planner_core::grid::obstacle_layer::{scan_rays, ObstacleLayer, RangeLimits};
+use planner_core::grid::obstacle_layer::{scan_rays, ObstacleLayer, SourceRules};
 use planner_core::grid::raycast::path_is_free;
 use planner_core::grid::GridMap;
 use planner_core::planner::{validate, PlanContext, Planner, PlannerRng, Query};
@@ -149,7 +149,7 @@ fn obstacle_layer_update(c: &mut Criterion) {
     // A 270-degree scanner (1080 rays, a quarter degree apart) in the middle of the map, every
     // return 2 m away: a ring of marks within obstacle_max_range.
     let centre = info.grid_to_world(Point2::new(1000.0, 1000.0));
-    let limits = RangeLimits::default();
+    let rules = SourceRules::default();
     let ranges = vec![2.0f32; 1080];
     let increment = 1.5 * std::f64::consts::PI / 1080.0;
     let rays = scan_rays(
@@ -158,7 +158,7 @@ fn obstacle_layer_update(c: &mut Criterion) {
         increment,
         0.05,
         10.0,
-        &limits,
+        &rules,
         |x, y| Point3::new(centre.x + x, centre.y + y, 0.2),
     );
     let mut layer = ObstacleLayer::new(info);

@@ -9,7 +9,7 @@ use chassis::follower::FollowerParams;
 use chassis::limits::TwistLimits;
 use chassis::progress::ProgressParams;
 use planner_core::config::PlannerConfig;
-use planner_core::grid::obstacle_layer::RangeLimits;
+use planner_core::grid::obstacle_layer::SourceRules;
 use planner_core::PlannerName;
 use ros_parameters::{field_names as keys, Layers, WILDCARD};
 pub use ros_parameters::{ParameterOverride, ParameterSource};
@@ -67,8 +67,9 @@ pub struct NodeParams {
     pub behavior_server: BehaviorServerParams,
     /// The local costmap's window (`local_costmap/get_costmap`).
     pub local_costmap: LocalCostmapParams,
-    /// What a laser scanner sees, laid on the node's own grid (Nav2's ObstacleLayer with one
-    /// LaserScan source). Not with `costmap_topic`, whose costmap has its own.
+    /// What the robot's range sensors see, laid on the node's own grid (Nav2's ObstacleLayer:
+    /// laser scans and point clouds, one or more sources). Not with `costmap_topic`, whose
+    /// costmap has its own.
     pub obstacle_layer: ObstacleLayerParams,
     /// Publish `/cmd_vel` as geometry_msgs/TwistStamped (what Jazzy's diff_drive_controller
     /// expects; Nav2's parameter of the same name) instead of Twist.
@@ -349,27 +350,60 @@ impl Default for LocalCostmapParams {
     }
 }
 
-/// Nav2's ObstacleLayer with one observation source, a sensor_msgs/LaserScan or PointCloud2
-/// topic (costmap_2d's `observation_sources: scan` and its `scan:` block, whose key names these
-/// keep): each reading, placed through TF at its stamp, clears the cells its rays cross and
-/// marks the cells its returns fall in; the marks are laid on the map as obstacles and inflated with it, so plans
+/// Nav2's ObstacleLayer, with its parameters as a global costmap's `obstacle_layer:` block has
+/// them: the layer's own keys and `observation_sources`, a space-separated list of source
+/// names, each with a block of its own (`scan: {topic: /scan, data_type: LaserScan, ...}`), so
+/// a Nav2 user's block is read as it stands, a laser scanner and a depth camera together. Each
+/// reading, placed through TF at its stamp, clears the cells its rays cross and marks the cells
+/// its returns fall in; the marks are laid on the map as obstacles and inflated with it, so plans
 /// go round what the robot sees (an open cabinet door, a trolley left in an aisle) and a path
 /// being followed that a new obstacle blocks is planned again.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(try_from = "ObstacleLayerBlock", into = "ObstacleLayerBlock")]
 pub struct ObstacleLayerParams {
-    /// Run the layer (when a scan arrives). Default true, as in Nav2's global costmap.
+    /// Run the layer (when a reading arrives). Default true, as in Nav2's global costmap.
     pub enabled: bool,
-    /// The readings' topic (best effort, as drivers publish them). Default `scan` (in the
-    /// node's namespace).
+    /// Clear the cells under the robot (its radius round its pose), so that a return off the
+    /// robot's own body or off someone walking past does not leave it inside an obstacle
+    /// (Nav2's `footprint_clearing_enabled`). Default true.
+    pub footprint_clearing_enabled: bool,
+    /// The layer's own heights (m, z in the global frame; Nav2's 0 and 2): a return a source
+    /// keeps outside them clears its ray but is not marked.
+    pub min_obstacle_height: f64,
+    pub max_obstacle_height: f64,
+    /// How often (Hz) what the readings changed is laid on the planning grid, which is then
+    /// made again (Nav2's global costmap `update_frequency`, 1 Hz). Within 0.1..=20.
+    pub update_frequency: f64,
+    /// The observation sources, in `observation_sources`' order. Default: one, `scan`.
+    pub sources: Vec<ObservationSource>,
+}
+
+/// One observation source of the obstacle layer: Nav2's keys of a source block. A key left out
+/// takes the value nav2_params.yaml gives its `scan` source (marking and clearing, 0 to 2 m
+/// high), not costmap_2d's code default (`clearing: false`, `max_obstacle_height: 0`, which
+/// would keep nothing a sensor above the floor sees); the topic defaults to the source's name,
+/// as in Nav2.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObservationSource {
+    /// Its name in `observation_sources` (the key of its block).
+    #[serde(skip)]
+    pub name: String,
+    /// The readings' topic (best effort, as drivers publish them), in the node's namespace
+    /// when relative. Default: the source's name.
     pub topic: String,
     /// What the topic carries (Nav2's `data_type`): `LaserScan` (default) or `PointCloud2` (a
     /// depth camera, a 3-D lidar).
     pub data_type: ObservationType,
-    /// Returns (a cloud's points, a scan's returns) lower or higher than these (m, their z in
-    /// the global frame) are not obstacles and clear nothing: the floor and the ceiling (Nav2's
-    /// `min_obstacle_height` and `max_obstacle_height`, 0 and 2; a level scanner between them
-    /// keeps every return).
+    /// The sensor's frame, used instead of the readings' own `frame_id` when set (Nav2's
+    /// `sensor_frame`). Default empty: the readings'.
+    pub sensor_frame: String,
+    /// Its returns mark their cells (Nav2's `marking`). Default true.
+    pub marking: bool,
+    /// Its rays clear the cells they cross (Nav2's `clearing`). Default true.
+    pub clearing: bool,
+    /// Returns lower or higher than these (m, their z in the global frame) are dropped: they
+    /// neither clear nor mark (the floor and the ceiling). Default 0 and 2.
     pub min_obstacle_height: f64,
     pub max_obstacle_height: f64,
     /// Returns nearer than this are not marked (m). Default 0.
@@ -383,47 +417,36 @@ pub struct ObstacleLayerParams {
     /// An infinite range is "nothing up to the sensor's range" and clears (Nav2's
     /// `inf_is_valid`); otherwise it is no reading. Default false, as Nav2's.
     pub inf_is_valid: bool,
-    /// Clear the cells under the robot (its radius round its pose), so that a scan of the
-    /// robot's own body or of someone walking past does not leave it inside an obstacle
-    /// (Nav2's `footprint_clearing_enabled`). Default true.
-    pub footprint_clearing_enabled: bool,
-    /// How often (Hz) what the scans changed is laid on the planning grid, which is then made
-    /// again (Nav2's global costmap `update_frequency`, 1 Hz). Within 0.1..=20.
-    pub update_frequency: f64,
+    /// How long (s) a reading is kept and applied again at each update (Nav2's
+    /// `observation_persistence`): only 0, Nav2's default: each reading is applied once, as it
+    /// comes, and what it marked stays until a ray clears it.
+    pub observation_persistence: f64,
+    /// How often (s) a reading should come (Nav2's `expected_update_rate`, a period despite
+    /// its name): a source silent for longer is warned of in the log, once, until it speaks
+    /// again. 0 (default): never.
+    pub expected_update_rate: f64,
 }
 
-/// What an obstacle layer's topic carries (Nav2's `data_type`).
+/// What an observation source's topic carries (Nav2's `data_type`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ObservationType {
     LaserScan,
     PointCloud2,
 }
 
-impl Default for ObstacleLayerParams {
-    /// Nav2's defaults: the ranges and heights planner_core keeps for its ObstacleLayer.
-    fn default() -> Self {
-        let nav2 = RangeLimits::default();
+impl ObservationSource {
+    /// A source named `name` with the defaults: its topic is its name.
+    pub fn named(name: &str) -> Self {
         Self {
-            enabled: true,
-            topic: "scan".into(),
-            data_type: ObservationType::LaserScan,
-            min_obstacle_height: nav2.min_obstacle_height,
-            max_obstacle_height: nav2.max_obstacle_height,
-            obstacle_min_range: nav2.obstacle_min_range,
-            obstacle_max_range: nav2.obstacle_max_range,
-            raytrace_min_range: nav2.raytrace_min_range,
-            raytrace_max_range: nav2.raytrace_max_range,
-            inf_is_valid: nav2.inf_is_valid,
-            footprint_clearing_enabled: true,
-            update_frequency: 1.0,
+            name: name.to_owned(),
+            topic: name.to_owned(),
+            ..Self::default()
         }
     }
-}
 
-impl ObstacleLayerParams {
-    /// How the layer reads its sensor's returns.
-    pub fn range_limits(&self) -> RangeLimits {
-        RangeLimits {
+    /// How the layer reads this source's readings, the layer's heights with its own.
+    pub fn rules(&self, layer: &ObstacleLayerParams) -> SourceRules {
+        SourceRules {
             obstacle_min_range: self.obstacle_min_range,
             obstacle_max_range: self.obstacle_max_range,
             raytrace_min_range: self.raytrace_min_range,
@@ -431,7 +454,159 @@ impl ObstacleLayerParams {
             inf_is_valid: self.inf_is_valid,
             min_obstacle_height: self.min_obstacle_height,
             max_obstacle_height: self.max_obstacle_height,
+            layer_min_obstacle_height: layer.min_obstacle_height,
+            layer_max_obstacle_height: layer.max_obstacle_height,
+            marking: self.marking,
+            clearing: self.clearing,
         }
+    }
+}
+
+impl Default for ObservationSource {
+    /// nav2_params.yaml's `scan` source, on planner_core's [`SourceRules`] defaults.
+    fn default() -> Self {
+        let nav2 = SourceRules::default();
+        Self {
+            name: String::new(),
+            topic: String::new(),
+            data_type: ObservationType::LaserScan,
+            sensor_frame: String::new(),
+            marking: nav2.marking,
+            clearing: nav2.clearing,
+            min_obstacle_height: nav2.min_obstacle_height,
+            max_obstacle_height: nav2.max_obstacle_height,
+            obstacle_min_range: nav2.obstacle_min_range,
+            obstacle_max_range: nav2.obstacle_max_range,
+            raytrace_min_range: nav2.raytrace_min_range,
+            raytrace_max_range: nav2.raytrace_max_range,
+            inf_is_valid: nav2.inf_is_valid,
+            observation_persistence: 0.0,
+            expected_update_rate: 0.0,
+        }
+    }
+}
+
+impl Default for ObstacleLayerParams {
+    /// Nav2's global costmap's obstacle layer, with nav2_params.yaml's one `scan` source.
+    fn default() -> Self {
+        let nav2 = SourceRules::default();
+        Self {
+            enabled: true,
+            footprint_clearing_enabled: true,
+            min_obstacle_height: nav2.layer_min_obstacle_height,
+            max_obstacle_height: nav2.layer_max_obstacle_height,
+            update_frequency: 1.0,
+            sources: vec![ObservationSource::named("scan")],
+        }
+    }
+}
+
+/// The most observation sources the layer reads: each is a subscription and a task.
+pub const MAX_OBSERVATION_SOURCES: usize = 16;
+
+/// The Nav2 plugin an `obstacle_layer.plugin` may name: the layer this node runs.
+const OBSTACLE_LAYER_PLUGIN: &str = "nav2_costmap_2d::ObstacleLayer";
+
+/// `obstacle_layer:` as written: the layer's keys, and the source blocks under the names
+/// `observation_sources` lists, which [`ObstacleLayerParams`] is read from and written back to
+/// (so `ros2 param get /patrol_planner obstacle_layer.scan.topic` answers, as Nav2's does).
+#[derive(Serialize, Deserialize)]
+#[serde(default)]
+struct ObstacleLayerBlock {
+    /// Nav2's `plugin` key, accepted when it names the ObstacleLayer.
+    #[serde(skip_serializing_if = "String::is_empty")]
+    plugin: String,
+    enabled: bool,
+    observation_sources: String,
+    footprint_clearing_enabled: bool,
+    min_obstacle_height: f64,
+    max_obstacle_height: f64,
+    update_frequency: f64,
+    /// The source blocks, and any other key (refused).
+    #[serde(flatten)]
+    blocks: BTreeMap<String, Value>,
+}
+
+impl Default for ObstacleLayerBlock {
+    fn default() -> Self {
+        ObstacleLayerParams::default().into()
+    }
+}
+
+impl From<ObstacleLayerParams> for ObstacleLayerBlock {
+    fn from(p: ObstacleLayerParams) -> Self {
+        let names: Vec<&str> = p.sources.iter().map(|s| s.name.as_str()).collect();
+        Self {
+            plugin: String::new(),
+            enabled: p.enabled,
+            observation_sources: names.join(" "),
+            footprint_clearing_enabled: p.footprint_clearing_enabled,
+            min_obstacle_height: p.min_obstacle_height,
+            max_obstacle_height: p.max_obstacle_height,
+            update_frequency: p.update_frequency,
+            blocks: p
+                .sources
+                .iter()
+                .map(|s| (s.name.clone(), serde_yaml::to_value(s).unwrap_or_default()))
+                .collect(),
+        }
+    }
+}
+
+impl TryFrom<ObstacleLayerBlock> for ObstacleLayerParams {
+    type Error = String;
+
+    /// Each name in `observation_sources` read from its block (the defaults where it has
+    /// none); a name twice, a block no name lists or a key of neither kind is refused by name.
+    fn try_from(mut b: ObstacleLayerBlock) -> Result<Self, String> {
+        if !b.plugin.is_empty() && b.plugin != OBSTACLE_LAYER_PLUGIN {
+            return Err(format!(
+                "obstacle_layer.plugin `{}`: this node runs `{OBSTACLE_LAYER_PLUGIN}` only",
+                b.plugin
+            ));
+        }
+        let names: Vec<&str> = b.observation_sources.split_whitespace().collect();
+        if names.len() > MAX_OBSERVATION_SOURCES {
+            return Err(format!(
+                "obstacle_layer.observation_sources: {} sources, at most {MAX_OBSERVATION_SOURCES}",
+                names.len()
+            ));
+        }
+        let mut sources: Vec<ObservationSource> = Vec::with_capacity(names.len());
+        for name in &names {
+            if sources.iter().any(|s| s.name == *name) {
+                return Err(format!(
+                    "obstacle_layer.observation_sources names `{name}` twice"
+                ));
+            }
+            let source = match b.blocks.remove(*name) {
+                None => ObservationSource::named(name),
+                Some(block) => {
+                    let mut source: ObservationSource = serde_yaml::from_value(block)
+                        .map_err(|e| format!("obstacle_layer.{name}: {e}"))?;
+                    source.name = (*name).to_owned();
+                    if source.topic.is_empty() {
+                        source.topic = (*name).to_owned();
+                    }
+                    source
+                }
+            };
+            sources.push(source);
+        }
+        if let Some(key) = b.blocks.keys().next() {
+            return Err(format!(
+                "unknown parameter `obstacle_layer.{key}`: neither a key of the layer (enabled, observation_sources, footprint_clearing_enabled, min_obstacle_height, max_obstacle_height, update_frequency, plugin) nor a source `observation_sources` names (`{}`)",
+                b.observation_sources
+            ));
+        }
+        Ok(Self {
+            enabled: b.enabled,
+            footprint_clearing_enabled: b.footprint_clearing_enabled,
+            min_obstacle_height: b.min_obstacle_height,
+            max_obstacle_height: b.max_obstacle_height,
+            update_frequency: b.update_frequency,
+            sources,
+        })
     }
 }
 
@@ -569,16 +744,33 @@ impl NodeParams {
             return Err("behavior_server: simulate_ahead_time within 0..=10 s, projection_time within 0.1..=10 s, simulation_time_step at least 0.01 s and below projection_time, cmd_vel_teleop a topic".into());
         }
         let o = &self.obstacle_layer;
-        if !within(o.obstacle_min_range, 0.0, o.obstacle_max_range)
-            || !within(o.obstacle_max_range, 0.0, 50.0)
-            || !within(o.raytrace_min_range, 0.0, o.raytrace_max_range)
-            || !within(o.raytrace_max_range, 0.0, 50.0)
-            || !within(o.update_frequency, 0.1, 20.0)
+        if !within(o.update_frequency, 0.1, 20.0)
             || !within(o.min_obstacle_height, -100.0, o.max_obstacle_height)
             || !within(o.max_obstacle_height, -100.0, 100.0)
-            || o.topic.is_empty()
         {
-            return Err("obstacle_layer: ranges from 0 to at most 50 m, heights within +-100 m, each min at most its max, update_frequency within 0.1..=20 Hz, topic a topic".into());
+            return Err("obstacle_layer: heights within +-100 m, min at most max, update_frequency within 0.1..=20 Hz".into());
+        }
+        for source in &o.sources {
+            if !within(source.obstacle_min_range, 0.0, source.obstacle_max_range)
+                || !within(source.obstacle_max_range, 0.0, 50.0)
+                || !within(source.raytrace_min_range, 0.0, source.raytrace_max_range)
+                || !within(source.raytrace_max_range, 0.0, 50.0)
+                || !within(
+                    source.min_obstacle_height,
+                    -100.0,
+                    source.max_obstacle_height,
+                )
+                || !within(source.max_obstacle_height, -100.0, 100.0)
+                || !within(source.expected_update_rate, 0.0, 3_600.0)
+            {
+                return Err(format!("obstacle_layer.{}: ranges from 0 to at most 50 m, heights within +-100 m, each min at most its max, expected_update_rate within 0..=3600 s", source.name));
+            }
+            if source.observation_persistence != 0.0 {
+                return Err(format!("obstacle_layer.{}.observation_persistence: only 0 (Nav2's default: each reading applied once, as it comes), not {}", source.name, source.observation_persistence));
+            }
+            if source.topic.is_empty() {
+                return Err(format!("obstacle_layer.{}.topic: a topic", source.name));
+            }
         }
         let local = &self.local_costmap;
         if !within(local.width, 0.1, 100.0) || !within(local.height, 0.1, 100.0) {
@@ -1479,21 +1671,59 @@ mod tests {
         ] {
             assert_refused(name, block, key);
         }
-        // An obstacle layer on a depth camera's points; the heights at Nav2's defaults.
-        let cloud = write(
-            "cloud.yaml",
-            "    obstacle_layer: {data_type: PointCloud2, topic: /camera/points}\n",
+        // Nav2's obstacle layer block as nav2_params.yaml writes it, with a depth camera
+        // beside the scanner: the keys left out at their defaults, the camera's topic its name.
+        let sources = write(
+            "sources.yaml",
+            concat!(
+                "    obstacle_layer:\n",
+                "      plugin: nav2_costmap_2d::ObstacleLayer\n",
+                "      enabled: True\n",
+                "      observation_sources: scan camera\n",
+                "      max_obstacle_height: 1.8\n",
+                "      scan: {topic: /scan, max_obstacle_height: 2.0, clearing: True, marking: True, data_type: LaserScan, raytrace_max_range: 3.0}\n",
+                "      camera: {data_type: PointCloud2, clearing: false, sensor_frame: camera_depth, expected_update_rate: 0.5}\n",
+            ),
         );
-        let o = load_parameter_file(&cloud).unwrap().node.obstacle_layer;
+        let o = load_parameter_file(&sources).unwrap().node.obstacle_layer;
+        let (scan, camera) = (&o.sources[0], &o.sources[1]);
+        assert_eq!(o.sources.len(), 2);
+        assert_eq!((scan.name.as_str(), scan.topic.as_str()), ("scan", "/scan"));
         assert_eq!(
             (
-                o.data_type,
-                o.topic.as_str(),
-                o.min_obstacle_height,
-                o.max_obstacle_height
+                camera.name.as_str(),
+                camera.topic.as_str(),
+                camera.data_type
             ),
-            (ObservationType::PointCloud2, "/camera/points", 0.0, 2.0)
+            ("camera", "camera", ObservationType::PointCloud2)
         );
+        assert!(scan.clearing && camera.marking && !camera.clearing);
+        assert_eq!(
+            (camera.sensor_frame.as_str(), camera.expected_update_rate),
+            ("camera_depth", 0.5)
+        );
+        let rules = camera.rules(&o);
+        assert_eq!(
+            (rules.max_obstacle_height, rules.layer_max_obstacle_height),
+            (2.0, 1.8)
+        );
+        // Written back as Nav2 names them, so `ros2 param get` finds each source's keys.
+        let back = serde_yaml::to_value(&o).unwrap();
+        assert_eq!(back["observation_sources"], Value::from("scan camera"));
+        assert_eq!(back["camera"]["topic"], Value::from("camera"));
+        let again: ObstacleLayerParams = serde_yaml::from_value(back).unwrap();
+        assert_eq!(again, o);
+        // No sources: the layer reads nothing, as Nav2's with an empty list.
+        let none = write(
+            "no_sources.yaml",
+            "    obstacle_layer: {observation_sources: ''}\n",
+        );
+        assert!(load_parameter_file(&none)
+            .unwrap()
+            .node
+            .obstacle_layer
+            .sources
+            .is_empty());
         // Nav2's BinaryFilter block, as Nav2 writes it under the filter's name; its defaults
         // where not given.
         let binary = write(
@@ -1642,28 +1872,63 @@ mod tests {
             ),
             (
                 "obstacle_ranges.yaml",
-                "    obstacle_layer: {obstacle_min_range: 3.0, obstacle_max_range: 2.0}\n",
-                "obstacle_layer",
+                "    obstacle_layer: {scan: {obstacle_min_range: 3.0, obstacle_max_range: 2.0}}\n",
+                "obstacle_layer.scan: ranges",
             ),
             (
                 "raytrace_far.yaml",
-                "    obstacle_layer: {raytrace_max_range: 1.0e6}\n",
-                "obstacle_layer",
+                "    obstacle_layer: {scan: {raytrace_max_range: 1.0e6}}\n",
+                "obstacle_layer.scan",
             ),
             (
                 "obstacle_heights.yaml",
                 "    obstacle_layer: {min_obstacle_height: 1.0, max_obstacle_height: 0.5}\n",
-                "obstacle_layer",
+                "obstacle_layer: heights",
+            ),
+            (
+                "source_heights.yaml",
+                "    obstacle_layer: {scan: {min_obstacle_height: 1.0, max_obstacle_height: 0.5}}\n",
+                "obstacle_layer.scan",
             ),
             (
                 "obstacle_type.yaml",
-                "    obstacle_layer: {data_type: Sonar}\n",
-                "obstacle_layer",
+                "    obstacle_layer: {scan: {data_type: Sonar}}\n",
+                "obstacle_layer.scan: unknown variant `Sonar`",
             ),
             (
                 "obstacle_rate.yaml",
                 "    obstacle_layer: {update_frequency: .nan}\n",
-                "obstacle_layer",
+                "update_frequency",
+            ),
+            (
+                "obstacle_unlisted.yaml",
+                "    obstacle_layer: {observation_sources: scan, camera: {topic: /points}}\n",
+                "`obstacle_layer.camera`: neither",
+            ),
+            (
+                "obstacle_typo.yaml",
+                "    obstacle_layer: {enabeld: true}\n",
+                "`obstacle_layer.enabeld`",
+            ),
+            (
+                "source_typo.yaml",
+                "    obstacle_layer: {scan: {topci: /scan}}\n",
+                "obstacle_layer.scan: unknown field `topci`",
+            ),
+            (
+                "source_twice.yaml",
+                "    obstacle_layer: {observation_sources: scan scan}\n",
+                "names `scan` twice",
+            ),
+            (
+                "persistence.yaml",
+                "    obstacle_layer: {scan: {observation_persistence: 2.0}}\n",
+                "observation_persistence: only 0",
+            ),
+            (
+                "voxel.yaml",
+                "    obstacle_layer: {plugin: nav2_costmap_2d::VoxelLayer}\n",
+                "runs `nav2_costmap_2d::ObstacleLayer` only",
             ),
             (
                 "teleop_step.yaml",

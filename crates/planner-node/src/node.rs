@@ -13,7 +13,7 @@
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
-//! | in | `obstacle_layer.topic` (`scan`) | sensor_msgs/LaserScan or PointCloud2 (`obstacle_layer.data_type`) | best effort, depth 5 (only with `obstacle_layer.enabled`, the default, and no `costmap_topic`: obstacle_layer.rs) |
+//! | in | each `obstacle_layer.<source>.topic` (`scan`) | sensor_msgs/LaserScan or PointCloud2 (`<source>.data_type`) | best effort, depth 5 (only with `obstacle_layer.enabled`, the default, and no `costmap_topic`: obstacle_layer.rs) |
 //! | in | `/tf`, `/tf_static` | tf2_msgs/TFMessage | reliable, depth 100; `/tf_static` transient local (tf2's listener): the TF tree, `map -> odom`, and the odometry `odom -> base_link`, which wins over `/odom` |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
@@ -540,26 +540,29 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let best_effort = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
     let odom_topic = topic(&mut node, "odom", "nav_msgs", "Odometry", &best_effort)?;
     let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort.clone()))?;
-    // The obstacle layer's scans, best effort as laser drivers publish them (sensor data QoS);
-    // not on a costmap taken as it is, which has its own obstacle layer.
+    // The obstacle layer's sources, best effort as sensor drivers publish them (sensor data
+    // QoS); not on a costmap taken as it is, which has its own obstacle layer.
     let layer = &params.obstacle_layer;
-    let readings = if layer.enabled && params.costmap_topic.is_empty() {
-        let kind = match layer.data_type {
-            ObservationType::LaserScan => "LaserScan",
-            ObservationType::PointCloud2 => "PointCloud2",
-        };
-        let t = topic(&mut node, &layer.topic, "sensor_msgs", kind, &best_effort)?;
-        Some(match layer.data_type {
-            ObservationType::LaserScan => obstacle_layer::Readings::Scans(
-                node.create_subscription::<LaserScan>(&t, Some(best_effort))?,
-            ),
-            ObservationType::PointCloud2 => obstacle_layer::Readings::Clouds(
-                node.create_subscription::<PointCloud2>(&t, Some(best_effort))?,
-            ),
-        })
-    } else {
-        None
-    };
+    let mut sources = Vec::new();
+    if layer.enabled && params.costmap_topic.is_empty() {
+        for source in &layer.sources {
+            let kind = match source.data_type {
+                ObservationType::LaserScan => "LaserScan",
+                ObservationType::PointCloud2 => "PointCloud2",
+            };
+            let t = topic(&mut node, &source.topic, "sensor_msgs", kind, &best_effort)?;
+            let qos = Some(best_effort.clone());
+            let readings = match source.data_type {
+                ObservationType::LaserScan => {
+                    obstacle_layer::Readings::Scans(node.create_subscription::<LaserScan>(&t, qos)?)
+                }
+                ObservationType::PointCloud2 => obstacle_layer::Readings::Clouds(
+                    node.create_subscription::<PointCloud2>(&t, qos)?,
+                ),
+            };
+            sources.push((source.clone(), readings));
+        }
+    }
     // controller_server's speed limits (reliable, volatile, depth 10: its QoS(10)).
     let speed_limit_sub = if params.follow_plan && !params.speed_limit_topic.is_empty() {
         let t = topic(
@@ -826,8 +829,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
         amcl_sub,
     ));
     tasks.spawn(inputs::receive_odometry(shared.clone(), odom_sub));
-    if let Some(readings) = readings {
-        tasks.spawn(obstacle_layer::receive(shared.clone(), readings));
+    if !sources.is_empty() {
+        tasks.spawn(obstacle_layer::lay(shared.clone()));
+    }
+    for (source, readings) in sources {
+        tasks.spawn(obstacle_layer::receive(shared.clone(), source, readings));
     }
     for (name, sub) in tf_subs {
         tasks.spawn(inputs::receive_transforms(shared.clone(), name, sub));

@@ -1,14 +1,17 @@
-//! The node's obstacle layer (`obstacle_layer`): laser scans or point clouds in, the obstacles
-//! they show laid on the planning grid, as Nav2's global costmap runs its ObstacleLayer between
-//! the static map and the inflation.
+//! The node's obstacle layer (`obstacle_layer`): laser scans and point clouds in, from each of
+//! its observation sources, the obstacles they show laid on the planning grid, as Nav2's global
+//! costmap runs its ObstacleLayer between the static map and the inflation.
 //!
-//! Each reading is placed in the global frame through TF at its stamp (the sensor's frame up to
-//! the robot, then the robot's pose), clears the cells its rays cross and marks those its
-//! returns fall in (planner_core's `ObstacleLayer`; a cloud's points outside the obstacle
-//! heights dropped first); the robot's own footprint is cleared. At the
-//! layer's `update_frequency` what changed is handed to the grid ([`Shared::seen_obstacles`]),
-//! which is made again, and the path being followed is checked against it as against a new
-//! map: an obstacle across it is planned round (`inputs::remake_grid_on_change`).
+//! Each source's readings ([`receive`], a task per source) are placed in the global frame
+//! through TF at their stamp (the sensor's frame up to the robot, then the robot's pose), clear
+//! the cells their rays cross and mark those their returns fall in, as the source's `clearing`
+//! and `marking` say (planner_core's `ObstacleLayer`; returns outside the source's heights
+//! dropped first); the robot's own footprint is cleared. All sources write one layer, and at
+//! the layer's `update_frequency` ([`lay`]) what changed is handed to the grid
+//! ([`Shared::lay_obstacles`]), which is made again, and the path being followed is checked
+//! against it as against a new map: an obstacle across it is planned round
+//! (`inputs::remake_grid_on_change`). A source that goes quiet for longer than its
+//! `expected_update_rate` is warned of, as costmap_2d warns of a stale observation buffer.
 //!
 //! A bad reading (numbers that are not finite, more rays than [`MAX_RAYS`], a malformed cloud:
 //! `convert::cloud_points`, a frame TF cannot place) is logged once per kind of fault and
@@ -19,19 +22,21 @@ use log::{debug, info, warn};
 use nalgebra::{Isometry3, Point3};
 use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
 use patrol_msgs::std_msgs::Header;
-use planner_core::grid::obstacle_layer::{cloud_rays, scan_rays, ObstacleLayer, RangeLimits, Ray};
+use planner_core::grid::obstacle_layer::{cloud_rays, scan_rays, ObstacleLayer, Ray, SourceRules};
 use planner_core::grid::MapInfo;
+use planner_io::parameters::ObservationSource;
 use ros2_client::Subscription;
 use std::collections::HashSet;
 use std::sync::Arc;
 use std::time::Duration;
+use tokio::time::Instant;
 
 /// The most rays a scan may have: a 0.1-degree scanner has 3600. A scan beyond it is refused,
 /// so no message can make the layer trace without end (a cloud's bound is
 /// `convert::MAX_CLOUD_POINTS`).
 pub const MAX_RAYS: usize = 20_000;
 
-/// The layer's topic, of the type `obstacle_layer.data_type` names.
+/// A source's topic, of the type its `data_type` names.
 pub enum Readings {
     Scans(Subscription<LaserScan>),
     Clouds(Subscription<PointCloud2>),
@@ -70,35 +75,64 @@ impl Reading {
     }
 }
 
-/// Takes the readings into the layer ([`Shared::obstacles`]), and lays the layer on the grid
-/// when it changed, at most at `update_frequency` ([`Shared::lay_obstacles`]).
-pub async fn receive(s: Arc<Shared>, readings: Readings) {
-    let params = s.params.obstacle_layer.clone();
-    let limits = params.range_limits();
-    let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / params.update_frequency));
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+/// Takes one source's readings into the layer ([`Shared::obstacles`]), and warns once when
+/// none has come for longer than the source's `expected_update_rate` (until one comes).
+pub async fn receive(s: Arc<Shared>, source: ObservationSource, readings: Readings) {
+    let rules = source.rules(&s.params.obstacle_layer);
+    let name = format!("obstacle_layer.{} (`{}`)", source.name, source.topic);
+    let expected = (source.expected_update_rate > 0.0)
+        .then(|| Duration::from_secs_f64(source.expected_update_rate));
+    let (mut last, mut quiet) = (Instant::now(), false);
     let mut faults = HashSet::new();
     loop {
+        let overdue = async {
+            match expected {
+                Some(period) if !quiet => tokio::time::sleep_until(last + period).await,
+                _ => std::future::pending().await,
+            }
+        };
         tokio::select! {
             taken = readings.next() => {
+                last = Instant::now();
+                if std::mem::take(&mut quiet) {
+                    info!("{name}: readings come again");
+                }
                 let observed = match taken {
-                    Ok(reading) => observe(&s, reading, limits).await,
+                    Ok(reading) => observe(&s, reading, &source.sensor_frame, rules).await,
                     Err(why) => Err(Fault { kind: "decode", why }),
                 };
                 if let Err(Fault { kind, why }) = observed {
                     // One line per kind of fault, not one per reading at the sensor's rate.
                     if faults.insert(kind) {
-                        warn!("{}: a reading skipped: {why}", params.topic);
+                        warn!("{name}: a reading skipped: {why}");
                     } else {
-                        debug!("{}: a reading skipped: {why}", params.topic);
+                        debug!("{name}: a reading skipped: {why}");
                     }
                 }
             }
-            _ = tick.tick() => {
-                if let Some(marked) = s.lay_obstacles() {
-                    debug!("{}: {marked} cells seen occupied", params.topic);
-                }
+            () = overdue => {
+                quiet = true;
+                warn!(
+                    "{name}: no reading for {:.2} s, where one should come every {:.2} s \
+                     (expected_update_rate): what it saw last stays marked",
+                    last.elapsed().as_secs_f64(),
+                    source.expected_update_rate
+                );
             }
+        }
+    }
+}
+
+/// Lays what the sources changed on the grid, at most at the layer's `update_frequency`
+/// ([`Shared::lay_obstacles`]).
+pub async fn lay(s: Arc<Shared>) {
+    let period = Duration::from_secs_f64(1.0 / s.params.obstacle_layer.update_frequency);
+    let mut tick = tokio::time::interval(period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tick.tick().await;
+        if let Some(marked) = s.lay_obstacles() {
+            debug!("obstacle_layer: {marked} cells seen occupied");
         }
     }
 }
@@ -113,9 +147,15 @@ struct Fault {
 /// map's size or origin changed (a new floor: what was seen on the old one is no longer where
 /// it was), as costmap_2d's layers are reset when the map resizes; the same map republished
 /// keeps what was seen. Nothing happens before the first map, or on a costmap taken as it is.
+/// The sensor is `sensor_frame` when set (the source's), else the reading's own frame.
 /// The reading is checked and traced off the async threads: a cloud of a million points, or a
 /// long raytrace range on a fine map, takes tens of milliseconds.
-async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Result<(), Fault> {
+async fn observe(
+    s: &Arc<Shared>,
+    reading: Reading,
+    sensor_frame: &str,
+    rules: SourceRules,
+) -> Result<(), Fault> {
     let Some(info) = s
         .map
         .read()
@@ -127,8 +167,13 @@ async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Resu
         return Ok(());
     };
     let header = reading.header();
+    let frame = if sensor_frame.is_empty() {
+        &header.frame_id
+    } else {
+        sensor_frame
+    };
     let sensor = s
-        .frame_in_global(&header.frame_id, crate::convert::seconds(&header.stamp))
+        .frame_in_global(frame, crate::convert::seconds(&header.stamp))
         .await
         .map_err(|f| Fault {
             kind: "frame",
@@ -136,7 +181,7 @@ async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Resu
         })?;
     let s = s.clone();
     tokio::task::spawn_blocking(move || {
-        let rays = rays(&reading, &limits, &sensor)?;
+        let rays = rays(&reading, &rules, &sensor)?;
         trace(&s, &rays, info);
         Ok(())
     })
@@ -153,7 +198,7 @@ async fn observe(s: &Arc<Shared>, reading: Reading, limits: RangeLimits) -> Resu
 /// a fault.
 fn rays(
     reading: &Reading,
-    limits: &RangeLimits,
+    rules: &SourceRules,
     sensor: &Isometry3<f64>,
 ) -> Result<Vec<Ray>, Fault> {
     match reading {
@@ -186,7 +231,7 @@ fn rays(
                 f64::from(scan.angle_increment),
                 f64::from(scan.range_min),
                 f64::from(scan.range_max),
-                limits,
+                rules,
                 |x, y| sensor * Point3::new(x, y, 0.0),
             ))
         }
@@ -196,7 +241,7 @@ fn rays(
             Ok(cloud_rays(
                 Point3::from(sensor.translation.vector),
                 points.into_iter().map(|q| sensor * q),
-                limits,
+                rules,
             ))
         }
     }

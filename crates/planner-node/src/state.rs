@@ -1162,8 +1162,7 @@ mod tests {
         // A return in cell (20, 5), seen from half a metre before it.
         let at = Point2::new(2.05, 0.55);
         assert!(layer.observe(&[Ray {
-            clear_from: Point2::new(1.55, 0.55),
-            clear_to: at,
+            clear: Some((Point2::new(1.55, 0.55), at)),
             mark: Some(at),
         }]));
         let seen = GridSettings {

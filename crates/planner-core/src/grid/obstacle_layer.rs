@@ -16,9 +16,10 @@ use crate::grid::map::{GridMap, MapInfo};
 use crate::grid::raycast::supercover;
 use nalgebra::Point3;
 
-/// How a scan's ranges are read: Nav2's ObstacleLayer observation source parameters.
+/// How the layer reads one observation source: Nav2's ObstacleLayer parameters of a source (its
+/// `scan:` block in `observation_sources`), with the layer's own obstacle heights.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RangeLimits {
+pub struct SourceRules {
     /// Returns nearer than this are not marked (m).
     pub obstacle_min_range: f64,
     /// Returns farther than this are not marked (m).
@@ -30,15 +31,26 @@ pub struct RangeLimits {
     /// An infinite range means "nothing up to the sensor's maximum range", and clears up to
     /// it, as Nav2's `inf_is_valid`; otherwise it is no reading.
     pub inf_is_valid: bool,
-    /// A return lower or higher than these (m, its z in the map frame) is no obstacle and
-    /// clears nothing (the floor, the ceiling): Nav2's `min_obstacle_height` and
-    /// `max_obstacle_height`, which it applies to a scan's returns as to a cloud's points.
+    /// The source's heights: a return lower or higher than these (m, its z in the map frame)
+    /// is dropped, neither clearing nor marking (the floor, the ceiling), as Nav2's
+    /// ObservationBuffer drops a source's points outside its `min_obstacle_height` and
+    /// `max_obstacle_height`, a scan's returns as a cloud's points.
     pub min_obstacle_height: f64,
     pub max_obstacle_height: f64,
+    /// The layer's own heights (ObstacleLayer's `min_obstacle_height` and
+    /// `max_obstacle_height`): a return the source keeps but outside these clears its ray and
+    /// is not marked, as Nav2's `updateBounds` passes over it when marking.
+    pub layer_min_obstacle_height: f64,
+    pub layer_max_obstacle_height: f64,
+    /// The source's returns mark their cells (Nav2's `marking`).
+    pub marking: bool,
+    /// The source's rays clear the cells they cross (Nav2's `clearing`).
+    pub clearing: bool,
 }
 
-impl Default for RangeLimits {
-    /// Nav2's ObstacleLayer defaults.
+impl Default for SourceRules {
+    /// The `scan` source of Nav2's nav2_params.yaml (marking and clearing, 0 to 2 m high) on
+    /// ObstacleLayer's defaults.
     fn default() -> Self {
         Self {
             obstacle_min_range: 0.0,
@@ -48,26 +60,44 @@ impl Default for RangeLimits {
             inf_is_valid: false,
             min_obstacle_height: 0.0,
             max_obstacle_height: 2.0,
+            layer_min_obstacle_height: 0.0,
+            layer_max_obstacle_height: 2.0,
+            marking: true,
+            clearing: true,
         }
     }
 }
 
-impl RangeLimits {
+impl SourceRules {
     fn height_ok(&self, z: f64) -> bool {
         (self.min_obstacle_height..=self.max_obstacle_height).contains(&z)
     }
 
-    /// One ray to a return at `end` (the map's plane), `length` m from the sensor along the
-    /// plane, whose point `d` m out is `along(d)`: it clears from `raytrace_min_range` to
-    /// `raytrace_max_range`, within its length, and marks `end` when `range` (the return's
-    /// distance as Nav2 gates it) is from `obstacle_min_range` up to, not at,
-    /// `obstacle_max_range`.
-    fn ray(&self, length: f64, range: f64, end: Point2, along: impl Fn(f64) -> Point2) -> Ray {
+    /// One ray to a return at `end` (the map's plane, `z` high), `length` m from the sensor
+    /// along the plane, whose point `d` m out is `along(d)`: with `clearing` it clears from
+    /// `raytrace_min_range` to `raytrace_max_range`, within its length; with `marking` it
+    /// marks `end` when `range` (the return's distance as Nav2 gates it) is from
+    /// `obstacle_min_range` up to, not at, `obstacle_max_range` and `z` is within the layer's
+    /// heights.
+    fn ray(
+        &self,
+        length: f64,
+        range: f64,
+        (end, z): (Point2, f64),
+        along: impl Fn(f64) -> Point2,
+    ) -> Ray {
         let clear_from = self.raytrace_min_range.min(length);
-        let mark = range >= self.obstacle_min_range && range < self.obstacle_max_range;
+        let mark = self.marking
+            && range >= self.obstacle_min_range
+            && range < self.obstacle_max_range
+            && (self.layer_min_obstacle_height..=self.layer_max_obstacle_height).contains(&z);
         Ray {
-            clear_from: along(clear_from),
-            clear_to: along(length.min(self.raytrace_max_range).max(clear_from)),
+            clear: self.clearing.then(|| {
+                (
+                    along(clear_from),
+                    along(length.min(self.raytrace_max_range).max(clear_from)),
+                )
+            }),
             mark: mark.then_some(end),
         }
     }
@@ -76,11 +106,10 @@ impl RangeLimits {
 /// One ray of an observation, in the map frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
-    /// Cells are cleared from here...
-    pub clear_from: Point2,
-    /// ... to here, this one's cell left as it is (the return's cell, or the end of the
-    /// raytrace range).
-    pub clear_to: Point2,
+    /// Cells are cleared from the first point to the second, the second's cell left as it is
+    /// (the return's cell, or the end of the raytrace range); `None` for a source that does
+    /// not clear.
+    pub clear: Option<(Point2, Point2)>,
     /// The return, when it is to be marked.
     pub mark: Option<Point2>,
 }
@@ -90,9 +119,10 @@ pub struct Ray {
 /// a range outside `range_min..range_max` (or NaN) is no reading (a sensor reports its
 /// maximum when nothing is there), an infinite one is just under the sensor's maximum range
 /// with `inf_is_valid` (clearing, marked only if that is within `obstacle_max_range`), else no
-/// reading. Marked: from `obstacle_min_range` up to, not at, `obstacle_max_range`. A return
-/// outside the obstacle heights (a tilted scanner seeing the floor) is dropped whole, as Nav2
-/// drops the scan's projected points. `to_map` carries a point of the sensor's frame (x, y in
+/// reading. Marked (with `marking`): from `obstacle_min_range` up to, not at,
+/// `obstacle_max_range`, within the layer's heights. A return outside the source's heights (a
+/// tilted scanner seeing the floor) is dropped whole, as Nav2 drops the scan's projected
+/// points. A ray that neither clears nor marks is left out. `to_map` carries a point of the sensor's frame (x, y in
 /// its scan plane) into the map frame, in three dimensions; the sensor is at its (0, 0).
 pub fn scan_rays(
     ranges: &[f32],
@@ -100,14 +130,14 @@ pub fn scan_rays(
     increment: f64,
     range_min: f64,
     range_max: f64,
-    limits: &RangeLimits,
+    rules: &SourceRules,
     to_map: impl Fn(f64, f64) -> Point3<f64>,
 ) -> Vec<Ray> {
     let flat = |p: Point3<f64>| Point2::new(p.x, p.y);
     let mut rays = Vec::with_capacity(ranges.len());
     for (i, &r) in ranges.iter().enumerate() {
         let r = f64::from(r);
-        let r = if r == f64::INFINITY && limits.inf_is_valid {
+        let r = if r == f64::INFINITY && rules.inf_is_valid {
             // Nav2 reads it as just under range_max, so laser_geometry keeps the point.
             range_max - 1e-4
         } else if r.is_finite() && r >= range_min && r < range_max {
@@ -118,32 +148,36 @@ pub fn scan_rays(
         let (sin, cos) = (angle_min + i as f64 * increment).sin_cos();
         let at = |d: f64| to_map(d * cos, d * sin);
         let end = at(r);
-        if !limits.height_ok(end.z) {
+        if !rules.height_ok(end.z) {
             continue;
         }
-        rays.push(limits.ray(r, r, flat(end), |d| flat(at(d))));
+        let ray = rules.ray(r, r, (flat(end), end.z), |d| flat(at(d)));
+        if ray.clear.is_some() || ray.mark.is_some() {
+            rays.push(ray);
+        }
     }
     rays
 }
 
 /// The rays of a point cloud (sensor_msgs/PointCloud2 with its points already in the map
 /// frame) as costmap_2d's ObservationBuffer and ObstacleLayer read them: a point whose height
-/// (its z in the map frame) is outside the limits' obstacle heights is dropped, as `min_obstacle_height` and
-/// `max_obstacle_height` drop the floor and the ceiling; a kept point is marked when its
-/// distance from the sensor's `origin` (in three dimensions, as Nav2 measures it) is within
-/// `obstacle_min_range..obstacle_max_range`, and clears the cells on the plane from the sensor
-/// towards it, between `raytrace_min_range` and `raytrace_max_range`. Points that are not
-/// finite are dropped.
+/// (its z in the map frame) is outside the source's heights is dropped, as its
+/// `min_obstacle_height` and `max_obstacle_height` drop the floor and the ceiling; a kept
+/// point is marked (with `marking`) when its distance from the sensor's `origin` (in three
+/// dimensions, as Nav2 measures it) is within `obstacle_min_range..obstacle_max_range` and its
+/// height within the layer's, and (with `clearing`) clears the cells on the plane from the
+/// sensor towards it, between `raytrace_min_range` and `raytrace_max_range`. Points that are
+/// not finite, and rays that neither clear nor mark, are left out.
 pub fn cloud_rays(
     origin: Point3<f64>,
     points: impl IntoIterator<Item = Point3<f64>>,
-    limits: &RangeLimits,
+    rules: &SourceRules,
 ) -> Vec<Ray> {
     let flat = |p: &Point3<f64>| Point2::new(p.x, p.y);
     let from = flat(&origin);
     points
         .into_iter()
-        .filter(|p| p.iter().all(|v| v.is_finite()) && limits.height_ok(p.z))
+        .filter(|p| p.iter().all(|v| v.is_finite()) && rules.height_ok(p.z))
         .map(|p| {
             let towards = flat(&p) - from;
             let length = towards.norm();
@@ -154,8 +188,9 @@ pub fn cloud_rays(
                     from
                 }
             };
-            limits.ray(length, (p - origin).norm(), flat(&p), along)
+            rules.ray(length, (p - origin).norm(), (flat(&p), p.z), along)
         })
+        .filter(|ray| ray.clear.is_some() || ray.mark.is_some())
         .collect()
 }
 
@@ -197,11 +232,8 @@ impl ObstacleLayer {
     /// Parts of rays off the map are skipped. Returns whether any cell changed.
     pub fn observe(&mut self, rays: &[Ray]) -> bool {
         let mut changed = false;
-        for ray in rays {
-            let (a, b) = (
-                self.info.world_to_grid(ray.clear_from),
-                self.info.world_to_grid(ray.clear_to),
-            );
+        for &(from, to) in rays.iter().filter_map(|r| r.clear.as_ref()) {
+            let (a, b) = (self.info.world_to_grid(from), self.info.world_to_grid(to));
             let end = Cell::containing(b);
             supercover(a, b, |c| {
                 if c != end && self.info.contains(c) {
@@ -326,8 +358,8 @@ mod tests {
         }
     }
 
-    fn limits() -> RangeLimits {
-        RangeLimits::default()
+    fn rules() -> SourceRules {
+        SourceRules::default()
     }
 
     /// A sensor at (0.55, 1.05), 0.2 m up, facing +x: its frame's (x, y) in the map.
@@ -345,7 +377,7 @@ mod tests {
     #[test]
     fn returns_are_marked_and_rays_clear_what_they_pass() {
         let mut layer = ObstacleLayer::new(info());
-        let one = |r: f32| scan_rays(&[r], 0.0, 0.1, 0.05, 10.0, &limits(), sensor);
+        let one = |r: f32| scan_rays(&[r], 0.0, 0.1, 0.05, 10.0, &rules(), sensor);
         assert!(layer.observe(&one(1.5)));
         assert!(layer.is_marked(cell_at(2.05, 1.05)));
         assert_eq!(layer.marked_count(), 1);
@@ -364,39 +396,39 @@ mod tests {
     /// inf_is_valid, clearing stops at raytrace_max_range and starts at raytrace_min_range.
     #[test]
     fn ranges_are_gated_as_the_obstacle_layer_gates_them() {
-        let scan = |ranges: &[f32], limits: &RangeLimits| {
-            scan_rays(ranges, 0.0, 0.0, 0.1, 3.2, limits, sensor)
+        let scan = |ranges: &[f32], rules: &SourceRules| {
+            scan_rays(ranges, 0.0, 0.0, 0.1, 3.2, rules, sensor)
         };
         // Below range_min, at or past range_max (nothing there), NaN, infinite, negative.
-        assert!(scan(&[0.05, 3.2, 3.5, f32::NAN, f32::INFINITY, -1.0], &limits()).is_empty());
-        let edge = scan(&[2.5, 2.4999], &limits());
+        assert!(scan(&[0.05, 3.2, 3.5, f32::NAN, f32::INFINITY, -1.0], &rules()).is_empty());
+        let edge = scan(&[2.5, 2.4999], &rules());
         assert_eq!(
             edge[0].mark, None,
             "obstacle_max_range itself is not marked"
         );
         assert!(edge[1].mark.is_some());
-        let far = scan(&[2.8], &limits());
+        let far = scan(&[2.8], &rules());
         assert_eq!(far.len(), 1);
         assert_eq!(
             far[0].mark, None,
             "beyond obstacle_max_range: cleared, not marked"
         );
-        let inf_valid = RangeLimits {
+        let inf_valid = SourceRules {
             inf_is_valid: true,
-            ..limits()
+            ..rules()
         };
         let inf = scan(&[f32::INFINITY], &inf_valid);
         assert_eq!(inf.len(), 1);
         assert_eq!(inf[0].mark, None);
         assert!(
-            (inf[0].clear_to.x - sensor(3.0, 0.0).x).abs() < 1e-9,
+            (inf[0].clear.unwrap().1.x - sensor(3.0, 0.0).x).abs() < 1e-9,
             "up to raytrace_max_range"
         );
         // Pitched down 10 degrees, 0.2 m up: returns past 1.15 m are below the floor, dropped
         // whole (Nav2's min_obstacle_height on the scan's points); the nearer one is kept.
         let (sin, cos) = 10f64.to_radians().sin_cos();
         let pitched = |x: f64, y: f64| Point3::new(0.55 + x * cos, 1.05 + y, 0.2 - x * sin);
-        let seen = scan_rays(&[1.0, 1.5], 0.0, 0.0, 0.1, 3.2, &limits(), pitched);
+        let seen = scan_rays(&[1.0, 1.5], 0.0, 0.0, 0.1, 3.2, &rules(), pitched);
         assert_eq!(seen.len(), 1);
         assert!(seen[0].mark.is_some());
         // A wall of marks along the ray's row.
@@ -404,9 +436,9 @@ mod tests {
         for x in 0..40 {
             layer.set(Cell::new(x, 10), true);
         }
-        let near_kept = RangeLimits {
+        let near_kept = SourceRules {
             raytrace_min_range: 1.0,
-            ..limits()
+            ..rules()
         };
         layer.observe(&scan(&[2.8], &near_kept));
         let still: Vec<i32> = (0..40)
@@ -430,16 +462,16 @@ mod tests {
             Point3::new(5.05, 1.05, 0.5),  // 4.5 m ahead: clears up to 3 m, not marked
             Point3::new(f64::NAN, 1.0, 0.5),
         ];
-        let rays = cloud_rays(origin, points, &limits());
+        let rays = cloud_rays(origin, points, &rules());
         assert_eq!(rays.len(), 2);
         assert_eq!(rays[0].mark, Some(Point2::new(2.05, 1.05)));
         assert_eq!(rays[1].mark, None);
-        assert!((rays[1].clear_to - Point2::new(3.55, 1.05)).norm() < 1e-9);
+        assert!((rays[1].clear.unwrap().1 - Point2::new(3.55, 1.05)).norm() < 1e-9);
         // 2.4 m straight ahead but 2.6 m away in three dimensions (the point is 1 m below the
         // sensor): beyond obstacle_max_range, as Nav2 measures it.
-        let below = RangeLimits {
+        let below = SourceRules {
             min_obstacle_height: -1.0,
-            ..limits()
+            ..rules()
         };
         let low = cloud_rays(origin, [Point3::new(2.95, 1.05, -0.5)], &below);
         assert_eq!(low[0].mark, None);
@@ -449,20 +481,73 @@ mod tests {
         assert_eq!(layer.marked_count(), 1);
     }
 
+    /// A source that only marks (a depth camera whose rays should not clear what the scanner
+    /// saw) or only clears, and the layer's heights over the source's: a return the source
+    /// keeps above the layer's `max_obstacle_height` clears its ray but is not marked.
+    #[test]
+    fn marking_clearing_and_the_layers_heights_are_each_honoured() {
+        let origin = Point3::new(0.55, 1.05, 0.5);
+        let box_ahead = [Point3::new(2.05, 1.05, 0.3)];
+        let marks_only = SourceRules {
+            clearing: false,
+            ..rules()
+        };
+        let rays = cloud_rays(origin, box_ahead, &marks_only);
+        assert_eq!(
+            (rays[0].clear, rays[0].mark),
+            (None, Some(Point2::new(2.05, 1.05)))
+        );
+        let clears_only = SourceRules {
+            marking: false,
+            ..rules()
+        };
+        let rays = cloud_rays(origin, box_ahead, &clears_only);
+        assert!(rays[0].clear.is_some() && rays[0].mark.is_none());
+        let neither = SourceRules {
+            marking: false,
+            clearing: false,
+            ..rules()
+        };
+        assert!(cloud_rays(origin, box_ahead, &neither).is_empty());
+        // A marked row; a marking-only source's ray across it leaves it.
+        let mut layer = ObstacleLayer::new(info());
+        layer.set(cell_at(1.55, 1.05), true);
+        layer.observe(&cloud_rays(origin, box_ahead, &marks_only));
+        assert!(layer.is_marked(cell_at(1.55, 1.05)));
+        assert!(layer.is_marked(cell_at(2.05, 1.05)));
+        // The source keeps up to 3 m, the layer marks up to 1 m: a shelf 1.5 m up clears.
+        let high = SourceRules {
+            max_obstacle_height: 3.0,
+            layer_max_obstacle_height: 1.0,
+            ..rules()
+        };
+        let shelf = cloud_rays(origin, [Point3::new(2.05, 1.05, 1.5)], &high);
+        assert!(shelf[0].mark.is_none() && shelf[0].clear.is_some());
+        layer.observe(&shelf);
+        assert!(!layer.is_marked(cell_at(1.55, 1.05)), "its ray clears");
+        // Scans alike: a level scanner 0.2 m up with the layer's floor at 0.5 m marks nothing.
+        let raised = SourceRules {
+            layer_min_obstacle_height: 0.5,
+            ..rules()
+        };
+        let scan = scan_rays(&[1.0], 0.0, 0.0, 0.1, 3.2, &raised, sensor);
+        assert!(scan[0].mark.is_none() && scan[0].clear.is_some());
+    }
+
     /// A rotated sensor's rays go where its pose puts them; rays off the map are skipped.
     #[test]
     fn rays_follow_the_sensor_pose_and_stay_on_the_map() {
         let mut layer = ObstacleLayer::new(info());
         // Facing +y from (0.55, 0.55): a return 1 m ahead is at (0.55, 1.55).
         let up = |x: f64, y: f64| Point3::new(0.55 - y, 0.55 + x, 0.2);
-        layer.observe(&scan_rays(&[1.0], 0.0, 0.0, 0.0, 10.0, &limits(), up));
+        layer.observe(&scan_rays(&[1.0], 0.0, 0.0, 0.0, 10.0, &rules(), up));
         assert!(layer.is_marked(cell_at(0.55, 1.55)));
         // From off the map, through it and off it again.
         let outside = |x: f64, y: f64| Point3::new(-1.0 + x, 1.05 + y, 0.2);
-        let long = RangeLimits {
+        let long = SourceRules {
             obstacle_max_range: 10.0,
             raytrace_max_range: 10.0,
-            ..limits()
+            ..rules()
         };
         layer.observe(&scan_rays(&[6.0], 0.0, 0.0, 0.0, 10.0, &long, outside));
         assert_eq!(layer.marked_count(), 1, "the return is off the map");
