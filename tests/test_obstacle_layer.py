@@ -159,6 +159,44 @@ def test_a_scanned_obstacle_is_planned_round_until_a_scan_clears_it(rig):
     assert straight[-1] == pytest.approx(GOAL)
 
 
+def test_the_layer_is_switched_off_and_on_at_run_time(rig):
+    """`ros2 param set /patrol_planner obstacle_layer.enabled false`, as Nav2's ObstacleLayer
+    takes it at run time (a lift, a dock the lidar would see as a wall): the next plans go
+    straight through the block the laser still sees; set true, the block is back at once (what
+    was seen is kept, not seen again). A value that is not a bool is refused, naming it; the
+    parameter reads back as set."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters, SetParameters
+
+    ros, laser = rig
+
+    def set_enabled(value):
+        request = SetParameters.Request(parameters=[Parameter(name="obstacle_layer.enabled", value=value)])
+        return call_service(ros, SetParameters, "/patrol_planner/set_parameters", request).results[0]
+
+    def enabled():
+        request = GetParameters.Request(names=["obstacle_layer.enabled"])
+        return call_service(ros, GetParameters, "/patrol_planner/get_parameters", request).values[0].bool_value
+
+    def straight():
+        p = plan(ros)
+        return p if swerve(p) is not None and swerve(p) < 0.05 else None
+
+    ros.spin_until(lambda: goes_round(ros), 30, "a plan round the block the scan shows")
+    assert set_enabled(ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False)).successful
+    assert not enabled()
+    ros.spin_until(straight, 10, "a straight plan with the layer off, the laser still on")
+    ros.spin_for(1.0)
+    assert straight(), "the scans go on being passed over"
+    refused = set_enabled(ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="yes"))
+    assert not refused.successful and "obstacle_layer.enabled" in refused.reason, refused
+    laser.on = False
+    ros.spin_for(0.3)
+    assert set_enabled(ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True)).successful
+    assert enabled()
+    ros.spin_until(lambda: goes_round(ros), 10, "the block kept while off, laid again once on")
+
+
 def test_a_recovery_clears_what_the_scans_marked(rig):
     """A wall the scan saw across the whole room (the person who stood there has gone out of
     the scanner's view): a /goal_pose beyond it finds no path, and its recovery, first of the

@@ -42,7 +42,9 @@ use crate::lifecycle_services;
 use crate::map_server;
 use crate::obstacle_layer;
 use crate::outputs::{CmdVel, Outputs};
-use crate::params::{is_live, unused_on_costmap, validate_parameter, with_setting, SETTINGS};
+use crate::params::{
+    is_live, unused_on_costmap, validate_parameter, with_setting, OBSTACLES_ENABLED, SETTINGS,
+};
 use crate::planning;
 use crate::state::{GoalSlot, Shared};
 use anyhow::Result;
@@ -301,11 +303,21 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             ParameterValue::Double(live.max_planning_time),
         )
         .declare_parameter("tolerance", ParameterValue::Double(live.tolerance))
+        .declare_parameter(
+            OBSTACLES_ENABLED,
+            ParameterValue::Boolean(live.obstacles_enabled),
+        )
         .parameter_validator(Box::new(move |name, value| {
             if let Some(answer) = read_only_answer(&held, name, value, "the node") {
                 return answer;
             }
             validate_parameter(name, value)?;
+            if name == OBSTACLES_ENABLED && !on_check.params.costmap_topic.is_empty() {
+                return Err(format!(
+                    "{name}: the node plans on `{}`, whose costmap node has its own obstacle layer",
+                    on_check.params.costmap_topic
+                ));
+            }
             let number = match value {
                 ParameterValue::Double(v) => *v,
                 ParameterValue::Integer(v) => *v as f64,
@@ -332,13 +344,15 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
                 }
                 ("max_planning_time", ParameterValue::Double(v)) => l.max_planning_time = *v,
                 ("tolerance", ParameterValue::Double(v)) => l.tolerance = *v,
+                (OBSTACLES_ENABLED, ParameterValue::Boolean(on)) => l.obstacles_enabled = *on,
                 (_, ParameterValue::Double(v)) => l.config = setting(&l.config, name, *v)?,
                 // `ros2 param set ... swarm.safety_weight 0` sends an integer.
                 (_, ParameterValue::Integer(v)) => l.config = setting(&l.config, name, *v as f64)?,
                 _ => return Err(format!("`{name}` cannot be set at run time")),
             }
             info!("parameter {name} set to {value:?}");
-            // A changed inflation is made into the grid now, not by the next plan.
+            // A changed inflation, or the obstacles switched, is made into the grid now, not by
+            // the next plan.
             on_set.settings_changed.notify_one();
             Ok(())
         }));
@@ -541,10 +555,11 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     let odom_topic = topic(&mut node, "odom", "nav_msgs", "Odometry", &best_effort)?;
     let odom_sub = node.create_subscription::<Odometry>(&odom_topic, Some(best_effort.clone()))?;
     // The obstacle layer's sources, best effort as sensor drivers publish them (sensor data
-    // QoS); not on a costmap taken as it is, which has its own obstacle layer.
+    // QoS), also while the layer is not enabled (it may be at run time, as in Nav2); not on a
+    // costmap taken as it is, which has its own obstacle layer.
     let layer = &params.obstacle_layer;
     let mut sources = Vec::new();
-    if layer.enabled && params.costmap_topic.is_empty() {
+    if params.costmap_topic.is_empty() {
         for source in &layer.sources {
             let kind = match source.data_type {
                 ObservationType::LaserScan => "LaserScan",

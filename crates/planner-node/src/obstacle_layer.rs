@@ -12,6 +12,8 @@
 //! against it as against a new map: an obstacle across it is planned round
 //! (`inputs::remake_grid_on_change`). A source that goes quiet for longer than its
 //! `expected_update_rate` is warned of, as costmap_2d warns of a stale observation buffer.
+//! `obstacle_layer.enabled` may be set at run time: while false, readings are passed over and
+//! grids are made without the layer (`Shared::grid_settings`).
 //!
 //! A bad reading (numbers that are not finite, more rays than [`MAX_RAYS`], a malformed cloud:
 //! `convert::cloud_points`, a frame TF cannot place) is logged once per kind of fault and
@@ -98,6 +100,8 @@ pub async fn receive(s: Arc<Shared>, source: ObservationSource, readings: Readin
                     info!("{name}: readings come again");
                 }
                 let observed = match taken {
+                    // Switched off at run time: passed over, as Nav2's layer does.
+                    Ok(_) if !s.live.read().expect("lock").obstacles_enabled => Ok(()),
                     Ok(reading) => observe(&s, reading, &source.sensor_frame, rules).await,
                     Err(why) => Err(Fault { kind: "decode", why }),
                 };

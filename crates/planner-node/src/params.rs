@@ -167,11 +167,18 @@ fn is_setting(name: &str) -> bool {
     SETTINGS.iter().any(|w| w.name == name)
 }
 
+/// The obstacle layer's switch, settable at run time as Nav2's ObstacleLayer's `enabled` is
+/// (`Live::obstacles_enabled`).
+pub const OBSTACLES_ENABLED: &str = "obstacle_layer.enabled";
+
 /// Whether `ros2 param set` may change `name` while the node runs: `planner`,
-/// `max_planning_time`, `tolerance` and the [`SETTINGS`]. The node's other parameters are
-/// declared read-only (node.rs).
+/// `max_planning_time`, `tolerance`, [`OBSTACLES_ENABLED`] and the [`SETTINGS`]. The node's
+/// other parameters are declared read-only (node.rs).
 pub fn is_live(name: &str) -> bool {
-    matches!(name, "planner" | "max_planning_time" | "tolerance") || is_setting(name)
+    matches!(
+        name,
+        "planner" | "max_planning_time" | "tolerance" | OBSTACLES_ENABLED
+    ) || is_setting(name)
 }
 
 /// Checks a parameter value before ros2-client stores it; the reason goes back to `ros2 param set`.
@@ -195,6 +202,8 @@ pub fn validate_parameter(name: &str, value: &ParameterValue) -> Result<(), Stri
             "tolerance must be a finite non-negative double, not {v:?}"
         )),
         ("planner", v) => Err(format!("planner must be a string, not {v:?}")),
+        (OBSTACLES_ENABLED, ParameterValue::Boolean(_)) => Ok(()),
+        (OBSTACLES_ENABLED, v) => Err(format!("{OBSTACLES_ENABLED} must be a bool, not {v:?}")),
         // The range is the planners' own rule. It is checked here, before anything is stored,
         // as well as when the value is applied: ros2-client validates every value of a
         // SetParametersAtomically request before it applies the first, so a request with one
@@ -226,6 +235,7 @@ mod tests {
             "max_planning_time",
             "tolerance",
             "swarm.safety_weight",
+            "obstacle_layer.enabled",
         ] {
             assert!(is_live(live), "{live}");
         }

@@ -35,6 +35,11 @@ pub struct Live {
     /// The planning configuration with the weights and the inflation as last set
     /// (`crate::params::SETTINGS`); the next plan is built from it.
     pub config: PlannerConfig,
+    /// `obstacle_layer.enabled` as last set: while false, readings are passed over and the grid
+    /// is made without what the sources saw (kept, and laid again when it is set true), as
+    /// Nav2's ObstacleLayer takes its `enabled` at run time (a lift, a dock the lidar would see
+    /// as a wall).
+    pub obstacles_enabled: bool,
 }
 
 /// What a planning grid is made with beside its map: the costmap parameters as last set, the
@@ -335,6 +340,7 @@ impl Shared {
             max_planning_time: planning.max_planning_time,
             tolerance: planning.tolerance,
             config: planning.clone(),
+            obstacles_enabled: params.obstacle_layer.enabled,
         };
         let [x, y, yaw] = params.map_to_odom;
         Self {
@@ -496,10 +502,16 @@ impl Shared {
     /// What a grid made now is made with: the costmap parameters as last set, the keepout mask
     /// as last received.
     pub fn grid_settings(&self) -> GridSettings {
+        let (costmap, obstacles_enabled) = {
+            let live = self.live.read().expect("lock");
+            (live.config.costmap.clone(), live.obstacles_enabled)
+        };
         GridSettings {
-            costmap: self.live.read().expect("lock").config.costmap.clone(),
+            costmap,
             keepout: self.keepout.read().expect("lock").clone(),
-            obstacles: self.seen_obstacles.read().expect("lock").clone(),
+            obstacles: obstacles_enabled
+                .then(|| self.seen_obstacles.read().expect("lock").clone())
+                .flatten(),
         }
     }
 
