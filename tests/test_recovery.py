@@ -44,6 +44,8 @@ import rclpy
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionClient
 
@@ -68,16 +70,29 @@ INPUT_TIMEOUT = 2.0
 
 
 class Robot:
-    """The robot the node drives: stands still while `blocked`, else follows /cmd_vel."""
+    """The robot the node drives: stands still while `blocked`, else follows /cmd_vel. Its
+    camera (while `camera_on`) publishes a 4 x 2 bgr8 frame on /camera/image at 10 Hz whose
+    pixels say where the robot was: red x * 40, green y * 40 (within 0-255), blue 7."""
 
     def __init__(self, ros):
         self.x, self.y, self.yaw = START[0], START[1], 0.0
-        self.blocked = True
+        self.blocked, self.camera_on = True, True
         self.cmds = []
         ros.node.create_subscription(Twist, "/cmd_vel", self.cmds.append, 100)
         self.pub = ros.node.create_publisher(Odometry, "/odom", 10)
+        self.camera = ros.node.create_publisher(Image, "/camera/image", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
         self.clock = ros.node.get_clock()
         ros.node.create_timer(1.0 / RATE_HZ, self.tick)
+        ros.node.create_timer(0.1, self.photograph)
+
+    def photograph(self):
+        if not self.camera_on:
+            return
+        m = Image(height=2, width=4, encoding="bgr8", step=12)
+        m.header.stamp, m.header.frame_id = self.clock.now().to_msg(), "camera"
+        byte = lambda v: max(0, min(255, round(v * 40)))  # noqa: E731
+        m.data = bytes([7, byte(self.y), byte(self.x)] * 8)
+        self.camera.publish(m)
 
     def tick(self):
         if not self.blocked and self.cmds:
@@ -107,6 +122,7 @@ def rig(tmp_path):
         "    speed_filter_info_topic: /speed_filter_info\n"
         "    binary_filter: {filter_info_topic: /binary_filter_info}\n"
         f"    input_at_waypoint: {{enabled: true, timeout: {INPUT_TIMEOUT}}}\n"
+        f"    photo_at_waypoint: {{enabled: true, image_topic: /camera/image, save_dir: {tmp_path / 'photos'}}}\n"
     )
     proc = start_node(domain, params, "patrol_planner_recovery_test.log")
     ros = Ros(domain, context=rclpy.Context())
@@ -416,6 +432,43 @@ def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):
     assert log.read_text().count("waypoint 0: no input on") == timeouts + 1
     assert arrived and left, (arrived, left)
     assert left[0] - arrived[0] >= INPUT_TIMEOUT - 0.2, f"waited {left[0] - arrived[0]:.2f} s at waypoint 0"
+
+
+def test_a_patrol_photographs_each_waypoint_as_nav2s_photo_at_waypoint(rig, tmp_path):
+    """Nav2's PhotoAtWaypoint: at each waypoint reached the camera's next frame is saved as
+    `<save_dir>/<index>_<seconds>.png` (the input the rig also waits for comes at once). Each
+    photo shows the robot where the waypoint is: a frame taken after the arrival, not on the
+    way (the frames say where the robot was). With the camera off, the waypoint is missed
+    (TASK_EXECUTOR_FAILED, 601), the log says why, and the patrol ends as it would."""
+    from nav2_msgs.action import FollowWaypoints
+    from PIL import Image as Picture
+    from std_msgs.msg import Empty
+
+    ros, robot, _ = rig
+    robot.blocked = False
+    word = ros.node.create_publisher(Empty, "/input_at_waypoint/input", 10)
+    ros.wait_matched(word, "/input_at_waypoint/input")
+    ros.node.create_timer(0.1, lambda: word.publish(Empty()))
+    client = ActionClient(ros.node, FollowWaypoints, "follow_waypoints")
+    waypoints = [(2.0, 1.5), (3.5, 0.8)]
+    goal = FollowWaypoints.Goal(poses=[stamped(*w) for w in waypoints])
+    r, _ = behave(ros, client, goal, 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED and not r.result.missed_waypoints, (r.status, r.result)
+    photos = tmp_path / "photos"
+    for i, (x, y) in enumerate(waypoints):
+        [shot] = photos.glob(f"{i}_*.png")
+        assert int(shot.stem.split("_")[1]) > 0, shot
+        with Picture.open(shot) as picture:
+            assert picture.size == (4, 2) and picture.mode == "RGB"
+            red, green, blue = picture.getpixel((3, 1))
+        assert blue == 7 and abs(red - x * 40) <= 8 and abs(green - y * 40) <= 8, (i, red, green, blue)
+
+    robot.camera_on = False
+    log = ROOT / "target" / "patrol_planner_recovery_test.log"
+    r, _ = behave(ros, client, FollowWaypoints.Goal(poses=[stamped(2.5, 1.5)]), 60)
+    assert r.status == GoalStatus.STATUS_SUCCEEDED, (r.status, r.result.error_msg)
+    assert [(m.index, m.error_code) for m in r.result.missed_waypoints] == [(0, 601)]
+    assert "waypoint 0: no photo: no frame on /camera/image since the arrival" in log.read_text()
 
 
 def test_a_patrol_whose_pass_reaches_no_waypoint_ends_instead_of_looping(rig):

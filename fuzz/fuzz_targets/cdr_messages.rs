@@ -23,7 +23,7 @@ use patrol_msgs::nav2_msgs::{
     LoadMapRequest, NavigateThroughPosesGoal, NavigateToPoseGoal, SpeedLimit, SpinGoal, WaitGoal,
 };
 use patrol_msgs::nav_msgs::{GetMapRequest, GetPlanRequest, OccupancyGrid, Odometry};
-use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
+use patrol_msgs::sensor_msgs::{Image, LaserScan, PointCloud2};
 use patrol_msgs::tf2_msgs::TFMessage;
 use planner_core::geometry::Pose2;
 use planner_core::grid::map::DEFAULT_MAX_CELLS;
@@ -72,7 +72,7 @@ fuzz_target!(|data: &[u8]| {
     let Some((&selector, payload)) = data.split_first() else {
         return;
     };
-    match selector % 32 {
+    match selector % 33 {
         0 => {
             if let Some(msg) = round_trip::<OccupancyGrid>(payload) {
                 assert!(msg.data.len() <= payload.len());
@@ -151,6 +151,11 @@ fuzz_target!(|data: &[u8]| {
         30 => {
             if let Some(scan) = round_trip::<LaserScan>(payload) {
                 assert!(scan.ranges.len() + scan.intensities.len() <= payload.len());
+            }
+        }
+        31 => {
+            if let Some(frame) = round_trip::<Image>(payload) {
+                assert!(frame.data.len() + frame.encoding.len() <= payload.len());
             }
         }
         _ => {

@@ -277,7 +277,19 @@ pub mod sensor_msgs {
         pub data: Vec<u8>,
         pub is_dense: bool,
     }
-    messages!(LaserScan, PointField, PointCloud2);
+    /// sensor_msgs/Image: a camera's frame, `height` rows of `step` bytes, its pixels laid out
+    /// as `encoding` says (`rgb8`, `bgr8`, `mono8`, ...); what Nav2's PhotoAtWaypoint saves.
+    #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+    pub struct Image {
+        pub header: Header,
+        pub height: u32,
+        pub width: u32,
+        pub encoding: String,
+        pub is_bigendian: u8,
+        pub step: u32,
+        pub data: Vec<u8>,
+    }
+    messages!(LaserScan, PointField, PointCloud2, Image);
 }
 
 pub mod rosgraph_msgs {

@@ -212,6 +212,19 @@ fn every_message_matches_rclpy_byte_for_byte() {
         g::POINT_CLOUD2,
     );
     check(
+        "Image",
+        patrol_msgs::sensor_msgs::Image {
+            header: header_for("camera"),
+            height: 2,
+            width: 3,
+            encoding: "rgb8".into(),
+            is_bigendian: 0,
+            step: 9,
+            data: (0..18).collect(),
+        },
+        g::IMAGE,
+    );
+    check(
         "GetPlan request",
         GetPlanRequest {
             start: stamped(0.5, 0.5),

@@ -20,7 +20,7 @@ from nav2_msgs.action import (AssistedTeleop, BackUp, ComputePathThroughPoses, C
 from nav2_msgs.msg import MissedWaypoint
 from nav2_msgs.srv import ClearCostmapAroundPose, ClearEntireCostmap, GetCostmap, IsPathValid, LoadMap
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+from sensor_msgs.msg import Image, LaserScan, PointCloud2, PointField
 from nav2_msgs.msg import Costmap, CostmapFilterInfo, CostmapMetaData, SpeedLimit
 
 
@@ -80,6 +80,8 @@ def messages():
                                               PointField(name="z", offset=8, datatype=7, count=1)],
                                       is_bigendian=False, point_step=12, row_step=24,
                                       data=bytes(range(24)), is_dense=True)
+    out["IMAGE"] = Image(header=header("camera"), height=2, width=3, encoding="rgb8", is_bigendian=0,
+                         step=9, data=bytes(range(18)))
     out["GET_PLAN_REQUEST"] = GetPlan.Request(start=pose_stamped(0.5, 0.5), goal=pose_stamped(9.5, 3.5), tolerance=0.25)
     out["GET_PLAN_RESPONSE"] = GetPlan.Response(plan=Path(header=header(), poses=[pose_stamped(0.5, 0.5)]))
     st = DiagnosticStatus(level=b'\x02', name="patrol_planner: plan", message="GOAL_OCCUPIED", hardware_id="",

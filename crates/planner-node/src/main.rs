@@ -28,6 +28,7 @@ mod obstacle_layer;
 mod outputs;
 mod params;
 mod patrol;
+mod photo_at_waypoint;
 mod planning;
 mod result;
 mod state;

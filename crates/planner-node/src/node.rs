@@ -10,6 +10,7 @@
 //! | in | `/goal_pose` | geometry_msgs/PoseStamped | reliable, volatile, depth 10 (RViz's 2D Goal Pose) |
 //! | in | `/initialpose`, `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped | reliable, volatile |
 //! | in | `input_at_waypoint.input_topic` (`input_at_waypoint/input`) | std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan` and `input_at_waypoint.enabled`) |
+//! | in | `photo_at_waypoint.image_topic` (`/camera/color/image_raw`) | sensor_msgs/Image | best effort, depth 5 (only with `follow_plan` and `photo_at_waypoint.enabled`: photo_at_waypoint.rs) |
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
@@ -67,7 +68,7 @@ use patrol_msgs::nav2_msgs::{
 };
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, OccupancyGrid, Odometry, Path};
 use patrol_msgs::rosgraph_msgs::Clock;
-use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
+use patrol_msgs::sensor_msgs::{Image, LaserScan, PointCloud2};
 use patrol_msgs::std_msgs::{Bool, Empty};
 use patrol_msgs::tf2_msgs::TFMessage;
 use patrol_msgs::visualization_msgs::MarkerArray;
@@ -604,6 +605,20 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     } else {
         None
     };
+    // Nav2's PhotoAtWaypoint's camera, best effort: a camera's sensor-data QoS matches as well
+    // as a reliable one (Nav2 subscribes reliable, which a best-effort camera never matches).
+    let camera_sub = if params.follow_plan && params.photo_at_waypoint.enabled {
+        let t = topic(
+            &mut node,
+            &params.photo_at_waypoint.image_topic,
+            "sensor_msgs",
+            "Image",
+            &best_effort,
+        )?;
+        Some(node.create_subscription::<Image>(&t, Some(best_effort.clone()))?)
+    } else {
+        None
+    };
     // The TF tree (map -> odom as AMCL or a SLAM node broadcasts it, odom -> base_link as the
     // odometry does), with tf2's listener
     // QoS: /tf reliable and volatile, /tf_static reliable and transient local, both depth 100.
@@ -818,6 +833,13 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
             params.input_at_waypoint.input_topic.clone(),
             sub,
             |s| &s.waypoint_inputs,
+        ));
+    }
+    if let Some(sub) = camera_sub {
+        tasks.spawn(crate::photo_at_waypoint::receive(
+            shared.clone(),
+            params.photo_at_waypoint.image_topic.clone(),
+            sub,
         ));
     }
     if let Some(sub) = keepout_sub {

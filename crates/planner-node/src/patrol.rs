@@ -15,6 +15,7 @@ use crate::action_server::{Feedback, GoalStop, Preemption};
 use crate::actions::nav2_code;
 use crate::drive::{drive_to, DriveEnd};
 use crate::outputs::Outputs;
+use crate::photo_at_waypoint::{self, FRAME_WAIT};
 use crate::state::Shared;
 use log::{info, warn};
 use patrol_msgs::nav2_msgs::{
@@ -240,16 +241,39 @@ async fn patrol(
             }
             reached += 1;
             info!("follow_waypoints: pass {pass}, waypoint {i} reached");
-            // An input counts from the arrival on, during the pause too.
+            // An input or a camera frame counts from the arrival on, during the pause too.
             let inputs_before = s.waypoint_inputs.load(Ordering::SeqCst);
+            let frames_before = s.camera.lock().expect("lock").0;
             let pause = Duration::from_secs_f64(s.params.waypoint_pause_duration);
             match wait_at_waypoint(s, mine, stop, pause, Until::Elapsed).await {
                 Waited::Done | Waited::TimedOut => {}
                 Waited::Stopped => return (stop.end_status(), result),
                 Waited::Superseded => return superseded(result, i),
             }
+            // Nav2's task executors, the photo before the word that the inspection is done.
+            let photo = &s.params.photo_at_waypoint;
+            let mut task_failed = None;
+            if photo.enabled {
+                let until = Until::FrameAfter(frames_before);
+                match wait_at_waypoint(s, mine, stop, FRAME_WAIT, until).await {
+                    Waited::Done => {
+                        if let Err(why) = photo_at_waypoint::save(s, photo, i).await {
+                            task_failed = Some(format!("no photo: {why}"));
+                        }
+                    }
+                    Waited::Stopped => return (stop.end_status(), result),
+                    Waited::Superseded => return superseded(result, i),
+                    Waited::TimedOut => {
+                        task_failed = Some(format!(
+                            "no photo: no frame on {} since the arrival within {} s of the pause",
+                            photo.image_topic,
+                            FRAME_WAIT.as_secs_f64()
+                        ))
+                    }
+                }
+            }
             let input = &s.params.input_at_waypoint;
-            if input.enabled {
+            if input.enabled && task_failed.is_none() {
                 let timeout = Duration::from_secs_f64(input.timeout);
                 let until = Until::InputAfter(inputs_before);
                 match wait_at_waypoint(s, mine, stop, timeout, until).await {
@@ -257,20 +281,20 @@ async fn patrol(
                     Waited::Stopped => return (stop.end_status(), result),
                     Waited::Superseded => return superseded(result, i),
                     Waited::TimedOut => {
-                        warn!(
-                            "follow_waypoints: pass {pass}, waypoint {i}: no input on {} within {} s",
+                        task_failed = Some(format!(
+                            "no input on {} within {} s",
                             input.input_topic, input.timeout
-                        );
-                        missed(TASK_EXECUTOR_FAILED);
-                        if stop_on_failure {
-                            result.error_code = TASK_EXECUTOR_FAILED;
-                            result.error_msg = format!(
-                                "no input at waypoint {i} within {} s and stop_on_failure is set",
-                                input.timeout
-                            );
-                            return (GoalEndStatus::Aborted, result);
-                        }
+                        ))
                     }
+                }
+            }
+            if let Some(why) = task_failed {
+                warn!("follow_waypoints: pass {pass}, waypoint {i}: {why}");
+                missed(TASK_EXECUTOR_FAILED);
+                if stop_on_failure {
+                    result.error_code = TASK_EXECUTOR_FAILED;
+                    result.error_msg = format!("waypoint {i}: {why}, and stop_on_failure is set");
+                    return (GoalEndStatus::Aborted, result);
                 }
             }
         }
@@ -308,6 +332,9 @@ enum Until {
     /// An input counted after the given count, the count at the arrival (Nav2's
     /// InputAtWaypoint), for at most the time given: [`Waited::TimedOut`].
     InputAfter(u64),
+    /// A camera frame counted after the given count, the count at the arrival (a photo's,
+    /// Nav2's PhotoAtWaypoint), for at most the time given: [`Waited::TimedOut`].
+    FrameAfter(u64),
 }
 
 /// Stays at the reached waypoint for `duration`, or until what `until` names comes; polled at
@@ -321,10 +348,13 @@ async fn wait_at_waypoint(
 ) -> Waited {
     let started = Instant::now();
     loop {
-        if let Until::InputAfter(n) = until {
-            if s.waypoint_inputs.load(Ordering::SeqCst) > n {
-                return Waited::Done;
-            }
+        let came = match until {
+            Until::Elapsed => false,
+            Until::InputAfter(n) => s.waypoint_inputs.load(Ordering::SeqCst) > n,
+            Until::FrameAfter(n) => s.camera.lock().expect("lock").0 > n,
+        };
+        if came {
+            return Waited::Done;
         }
         if stop.requested() {
             return Waited::Stopped;
@@ -336,7 +366,7 @@ async fn wait_at_waypoint(
         if left.is_zero() {
             return match until {
                 Until::Elapsed => Waited::Done,
-                Until::InputAfter(_) => Waited::TimedOut,
+                Until::InputAfter(_) | Until::FrameAfter(_) => Waited::TimedOut,
             };
         }
         tokio::time::sleep(Duration::from_millis(20).min(left)).await;

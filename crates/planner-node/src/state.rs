@@ -276,6 +276,9 @@ pub struct Shared {
     /// How many inputs (std_msgs/Empty on `input_at_waypoint.input_topic`) have arrived: a
     /// patrol waiting at a waypoint waits for this to pass its count at arrival.
     pub waypoint_inputs: AtomicU64,
+    /// How many frames have come on `photo_at_waypoint.image_topic`, and the latest: a patrol
+    /// at a waypoint waits for the count to pass its count at arrival (photo_at_waypoint.rs).
+    pub camera: Mutex<(u64, Option<Arc<patrol_msgs::sensor_msgs::Image>>)>,
     /// The operator's latest command on `behavior_server.cmd_vel_teleop`, and when it came
     /// (assisted_teleop.rs).
     pub teleop: Mutex<Option<(Twist2, Instant)>>,
@@ -378,6 +381,7 @@ impl Shared {
             arrived: Mutex::new(None),
             moving: AtomicBool::new(false),
             waypoint_inputs: AtomicU64::new(0),
+            camera: Mutex::new((0, None)),
             teleop: Mutex::new(None),
             teleop_preempts: AtomicU64::new(0),
             speed_limit: RwLock::new(None),

@@ -158,6 +158,8 @@ pub struct NodeParams {
     /// outside, as Nav2's InputAtWaypoint task executor does: the inspection a patrol stops for
     /// (a gauge read, a photo taken) says it is done.
     pub input_at_waypoint: InputAtWaypointParams,
+    /// Nav2's PhotoAtWaypoint: a photo at each waypoint of a patrol (off by default).
+    pub photo_at_waypoint: PhotoAtWaypointParams,
     /// Nav2's `planner_plugins`: the planner ids a ComputePathToPose `planner_id` may name, as
     /// planner_server's behaviour trees send them (`GridBased` by default). Each id may have a
     /// block of its own, `<id>: {plugin: <planner>}`, naming one of this node's planners; an id
@@ -257,6 +259,36 @@ impl Default for InputAtWaypointParams {
             enabled: false,
             input_topic: "input_at_waypoint/input".into(),
             timeout: 10.0,
+        }
+    }
+}
+
+/// Nav2's PhotoAtWaypoint task executor (its parameter names and defaults, but off by
+/// default): at each waypoint reached, after the pause, the first camera frame taken after the
+/// arrival is saved as `<save_dir>/<waypoint index>_<seconds>.<image_format>`, the seconds the
+/// node's clock's when it is saved (Nav2 names it by the waypoint's own stamp, so a second
+/// pass overwrites the first's photos).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PhotoAtWaypointParams {
+    /// Take the photos. Default false.
+    pub enabled: bool,
+    /// The camera's sensor_msgs/Image topic (reliable, as rclcpp's SystemDefaultsQoS that Nav2
+    /// subscribes with; a best-effort camera still matches). Nav2's `/camera/color/image_raw`.
+    pub image_topic: String,
+    /// The folder the photos go to, made when missing. Nav2's `/tmp/waypoint_images`.
+    pub save_dir: String,
+    /// `png`, Nav2's default (lossless; this build writes no other format).
+    pub image_format: String,
+}
+
+impl Default for PhotoAtWaypointParams {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            image_topic: "/camera/color/image_raw".into(),
+            save_dir: "/tmp/waypoint_images".into(),
+            image_format: "png".into(),
         }
     }
 }
@@ -392,6 +424,7 @@ impl Default for NodeParams {
             waypoint_pause_duration: 0.0,
             stop_on_failure: false,
             input_at_waypoint: InputAtWaypointParams::default(),
+            photo_at_waypoint: PhotoAtWaypointParams::default(),
             planner_plugins: vec!["GridBased".into()],
             plugin_planners: BTreeMap::new(),
         }
@@ -470,6 +503,15 @@ impl NodeParams {
                 "binary_filter: flip_threshold must be finite, and a filter_info_topic needs a binary_state_topic"
                     .into(),
             );
+        }
+        let photo = &self.photo_at_waypoint;
+        if photo.image_format != "png"
+            || (photo.enabled && (photo.image_topic.is_empty() || photo.save_dir.is_empty()))
+        {
+            return Err(format!(
+                "photo_at_waypoint: image_format `png` only (not `{}`: this build writes no other format), and an image_topic and save_dir when enabled",
+                photo.image_format
+            ));
         }
         let input = &self.input_at_waypoint;
         if !within(input.timeout, 0.1, 3_600.0) || (input.enabled && input.input_topic.is_empty()) {
@@ -1331,6 +1373,16 @@ mod tests {
                 "input_topic.yaml",
                 "    input_at_waypoint: {enabled: true, input_topic: ''}\n",
                 "input_at_waypoint",
+            ),
+            (
+                "photo_jpg.yaml",
+                "    photo_at_waypoint: {enabled: true, image_format: jpg}\n",
+                "not `jpg`",
+            ),
+            (
+                "photo_dir.yaml",
+                "    photo_at_waypoint: {enabled: true, save_dir: ''}\n",
+                "save_dir",
             ),
         ] {
             assert_refused(name, block, key);
