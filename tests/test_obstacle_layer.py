@@ -44,28 +44,43 @@ def scan_ranges(block, span=BLOCK_Y):
     return ranges
 
 
-class Laser:
-    """Publishes at RATE_HZ a scan that sees the block while `block`, else one that does not."""
+class Sensor:
+    """A sensor on the robot (`frame` on /tf_static at `xyz` from base_link) publishing at
+    RATE_HZ, best effort as drivers do, what `reading()` makes, while `on`, stamped in
+    `stamp_frame` (the driver's frame: its own unless told otherwise)."""
 
-    def __init__(self, ros):
-        self.ros, self.block, self.bad, self.on, self.span = ros, True, False, True, BLOCK_Y
-        self.pub = ros.node.create_publisher(LaserScan, "/scan", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
-        ros.wait_matched(self.pub, "/scan")
-        static_transforms(ros, transform("base_link", "laser", (0.1, 0.0, 0.2)))
+    def __init__(self, ros, kind, topic, frame, xyz, stamp_frame=None):
+        self.ros, self.frame, self.stamp_frame, self.on = ros, frame, stamp_frame or frame, True
+        self.pub = ros.node.create_publisher(kind, topic, QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
+        ros.wait_matched(self.pub, topic)
+        static_transforms(ros, transform("base_link", frame, xyz))
         ros.node.create_timer(1.0 / RATE_HZ, self.tick)
 
     def tick(self):
         if not self.on:
             return
-        m = LaserScan()
+        m = self.reading()
         m.header.stamp = self.ros.node.get_clock().now().to_msg()
-        m.header.frame_id = "laser"
+        m.header.frame_id = self.stamp_frame
+        self.pub.publish(m)
+
+
+class Laser(Sensor):
+    """A scan that sees the block while `block`, else one that does not; its angle increment
+    NaN while `bad`."""
+
+    def __init__(self, ros):
+        self.block, self.bad, self.span = True, False, BLOCK_Y
+        super().__init__(ros, LaserScan, "/scan", "laser", (0.1, 0.0, 0.2))
+
+    def reading(self):
+        m = LaserScan()
         m.angle_min, m.angle_max, m.angle_increment = -math.pi / 2, math.pi / 2, math.radians(1.0)
         m.range_min, m.range_max = 0.05, 10.0
         m.ranges = scan_ranges(self.block, self.span)
         if self.bad:
             m.angle_increment = float("nan")
-        self.pub.publish(m)
+        return m
 
 
 @contextlib.contextmanager
@@ -218,31 +233,22 @@ def test_a_recovery_clears_what_the_scans_marked(rig):
     assert "recovery: the obstacles seen cleared" in log, log[-2000:]
 
 
-class Camera:
-    """A depth camera 0.1 m ahead of the robot and 0.5 m up (`camera` on /tf_static), publishing
-    at RATE_HZ the map points in `points` as a sensor_msgs/PointCloud2 on /camera/points in
-    `frame` (its own unless told otherwise), while `on`."""
+class Camera(Sensor):
+    """A depth camera 0.1 m ahead of the robot and 0.5 m up (`camera`): the map points in
+    `points` as a sensor_msgs/PointCloud2 on /camera/points, stamped in `frame`."""
 
     def __init__(self, ros, frame="camera"):
-        self.ros, self.frame, self.on, self.points = ros, frame, True, []
-        self.pub = ros.node.create_publisher(PointCloud2, "/camera/points", QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
-        ros.wait_matched(self.pub, "/camera/points")
-        self.at = (LASER_X, START[1], 0.5)  # in the map
-        static_transforms(ros, transform("base_link", "camera", (0.1, 0.0, 0.5)))
-        ros.node.create_timer(1.0 / RATE_HZ, self.tick)
+        self.points, self.at = [], (LASER_X, START[1], 0.5)  # at: in the map
+        super().__init__(ros, PointCloud2, "/camera/points", "camera", (0.1, 0.0, 0.5), frame)
 
-    def tick(self):
-        if not self.on:
-            return
+    def reading(self):
         m = PointCloud2()
-        m.header.stamp = self.ros.node.get_clock().now().to_msg()
-        m.header.frame_id = self.frame
         in_camera = np.array(self.points, dtype="<f4").reshape(-1, 3) - np.array(self.at, dtype="<f4")
         m.height, m.width = 1, len(in_camera)
         m.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
         m.is_bigendian, m.point_step, m.row_step, m.is_dense = False, 12, 12 * len(in_camera), True
         m.data = in_camera.tobytes()
-        self.pub.publish(m)
+        return m
 
 
 def goes_round(ros):
