@@ -177,9 +177,9 @@ def test_a_scanned_obstacle_is_planned_round_until_a_scan_clears_it(rig):
 def test_the_layer_is_switched_off_and_on_at_run_time(rig):
     """`ros2 param set /patrol_planner obstacle_layer.enabled false`, as Nav2's ObstacleLayer
     takes it at run time (a lift, a dock the lidar would see as a wall): the next plans go
-    straight through the block the laser still sees; set true, the block is back at once (what
-    was seen is kept, not seen again). A value that is not a bool is refused, naming it; the
-    parameter reads back as set."""
+    straight through the block the laser still sees; the scans that come while it is off (the
+    block gone) are passed over; set true, the block is back at once (what was seen before is
+    kept). A value that is not a bool is refused, naming it; the parameter reads back as set."""
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import GetParameters, SetParameters
 
@@ -201,8 +201,10 @@ def test_the_layer_is_switched_off_and_on_at_run_time(rig):
     assert set_enabled(ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False)).successful
     assert not enabled()
     ros.spin_until(straight, 10, "a straight plan with the layer off, the laser still on")
-    ros.spin_for(1.0)
-    assert straight(), "the scans go on being passed over"
+    # While off, the laser sees the block gone: those scans are passed over, not kept.
+    laser.block = False
+    ros.spin_for(1.5)
+    assert straight(), "the layer stays off"
     refused = set_enabled(ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="yes"))
     assert not refused.successful and "obstacle_layer.enabled" in refused.reason, refused
     laser.on = False
@@ -210,6 +212,8 @@ def test_the_layer_is_switched_off_and_on_at_run_time(rig):
     assert set_enabled(ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True)).successful
     assert enabled()
     ros.spin_until(lambda: goes_round(ros), 10, "the block kept while off, laid again once on")
+    ros.spin_for(1.0)
+    assert goes_round(ros), "no scan taken while off clears it"
 
 
 def test_a_recovery_clears_what_the_scans_marked(rig):
@@ -287,8 +291,9 @@ def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
     camera, a source that marks and does not clear, whose driver stamps its clouds in the wrong
     frame (`sensor_frame: camera` corrects it) and whose obstacle_max_range (4 m) reaches past
     the laser's raytrace range, sees a wall 3.3 m ahead across that side. The plan goes round
-    the other side: both sources' marks are in the one layer the grid is made from, and the
-    camera's rays, which cross the block, leave the laser's marks as they are. When the
+    the other side: both sources' marks are in the one layer the grid is made from, and a low
+    box the camera sees under the laser's rays stays marked through every update (clearing
+    first, then marking, as Nav2's layer updates). When the
     camera goes quiet beyond its expected_update_rate the log says so, and its wall stays."""
     from nav2_msgs.srv import GetCostmap
 
@@ -296,12 +301,9 @@ def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
              "camera: {topic: /camera/points, data_type: PointCloud2, clearing: false, "
              "sensor_frame: camera, obstacle_max_range: 4.0, expected_update_rate: 0.5}}")
     with room(tmp_path, layer) as ros:
-        laser = Laser(ros)
+        Laser(ros)
         camera = Camera(ros, frame="camera_driver_typo")
         first = ros.spin_until(lambda: goes_round(ros), 30, "a plan round the block the laser sees")
-        # The laser stops: its block stays marked, and only a camera that cleared could clear it.
-        laser.on = False
-        ros.spin_for(0.3)
         side = 1 if max(y for _, y in first) > START[1] + 0.5 else -1
         # A wall 0.2 m thick at x 3.9-4.1 m (past the laser's 3 m: it cannot clear it), 0.1 m
         # to 1.0 m high, from the room's wall on the plan's side to 0.3 m past the middle: the
@@ -309,8 +311,13 @@ def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
         # camera's rays to it cross the block: were they to clear, the block would go.
         edge, far = (1.2, 3.0) if side > 0 else (0.0, 1.8)
         steps = np.linspace(0.0, 1.0, 21)
-        camera.points = [(3.9 + 0.2 * t, edge + (far - edge) * a, 0.1 + 0.9 * b)
-                         for t in (0.0, 0.5, 1.0) for a in steps for b in steps]
+        wall = [(3.9 + 0.2 * t, edge + (far - edge) * a, 0.1 + 0.9 * b)
+                for t in (0.0, 0.5, 1.0) for a in steps for b in steps]
+        # A box 10 cm high at x 1.6 m on the straight line, below the laser's plane (0.2 m up):
+        # the laser's rays, every tenth of a second, pass over its cell and clear it; the
+        # camera's reading marks it again in each update, after every source's clearing.
+        box = [(1.65, START[1], 0.05 + 0.05 * b) for b in steps]
+        camera.points = wall + box
 
         def other_side():
             p = goes_round(ros)
@@ -318,12 +325,18 @@ def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
 
         other = ros.spin_until(other_side, 30, "a plan round the block on the other side of the camera's wall")
         assert not crosses_block(other)
-        # getGlobalCostmap(): the laser's block face (x 2.8 m, cells 27-28) lethal all along,
-        # where the camera's rays to its wall crossed it; the wall (cells 39-40) lethal.
+        # getGlobalCostmap(): the laser's block face (x 2.8 m, cells 27-28) lethal all along;
+        # the camera's wall (cells 39-40) lethal.
         cost = np.array(call_service(ros, GetCostmap, "global_costmap/get_costmap", GetCostmap.Request()).map.data,
                         dtype=np.uint8).reshape(30, 60)
         assert (cost[11:20, 27:29] == 254).any(axis=1).all(), cost[8:23, 26:30]
         assert (cost[round((edge + far) * 5), 39:41] == 254).any()
+        for _ in range(5):  # the box, under the laser's rays, through several updates
+            cost = np.array(call_service(ros, GetCostmap, "global_costmap/get_costmap", GetCostmap.Request()).map.data,
+                            dtype=np.uint8).reshape(30, 60)
+            # The box's cell: x 1.6-1.7 m, y 1.5 m on a cell's edge (row 14 or 15).
+            assert (cost[14:16, 16] == 254).any(), cost[13:18, 14:19]
+            ros.spin_for(0.3)
         log = ROOT / "target" / "patrol_planner_obstacle_layer_test.log"
         quiet = "obstacle_layer.camera (`/camera/points`): no reading for"
         before = log.read_text().count(quiet)  # the node may have started before the camera

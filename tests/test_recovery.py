@@ -435,11 +435,11 @@ def test_a_patrol_waits_at_each_waypoint_for_the_inspections_word(rig):
 
 
 def test_a_patrol_photographs_each_waypoint_as_nav2s_photo_at_waypoint(rig, tmp_path):
-    """Nav2's PhotoAtWaypoint: at each waypoint reached the camera's next frame is saved as
-    `<save_dir>/<index>_<seconds>.png` (the input the rig also waits for comes at once). Each
-    photo shows the robot where the waypoint is: a frame taken after the arrival, not on the
-    way (the frames say where the robot was). With the camera off, the waypoint is missed
-    (TASK_EXECUTOR_FAILED, 601), the log says why, and the patrol ends as it would."""
+    """Nav2's PhotoAtWaypoint: at each waypoint reached a camera frame that came since the
+    arrival is saved as `<save_dir>/<index>_<seconds>.png` (the input the rig also waits for
+    comes at once). Each photo shows the robot at its waypoint (the frames say where the robot
+    was). With the camera off, the waypoint is missed (TASK_EXECUTOR_FAILED, 601), the log
+    says why, and the patrol ends as it would."""
     from nav2_msgs.action import FollowWaypoints
     from PIL import Image as Picture
     from std_msgs.msg import Empty

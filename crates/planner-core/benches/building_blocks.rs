@@ -162,9 +162,9 @@ fn obstacle_layer_update(c: &mut Criterion) {
         |x, y| Point3::new(centre.x + x, centre.y + y, 0.2),
     );
     let mut layer = ObstacleLayer::new(info);
-    assert!(layer.observe(&rays) && layer.marked_count() > 100);
+    assert!(layer.observe(&[&rays], None) && layer.marked_count() > 100);
     c.bench_function("obstacle_layer/scan_1080_rays", |b| {
-        b.iter(|| black_box(&mut layer).observe(black_box(&rays)))
+        b.iter(|| black_box(&mut layer).observe(&[black_box(&rays)], None))
     });
     c.bench_function("obstacle_layer/lay_and_inflate_nav2bench_2000", |b| {
         b.iter(|| {

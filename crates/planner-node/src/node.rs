@@ -14,7 +14,7 @@
 //! | in | `/clock` | rosgraph_msgs/Clock | best effort, depth 1 (only with `use_sim_time`: every stamp is its time) |
 //! | in | `behavior_server.cmd_vel_teleop` (`cmd_vel_teleop`), `preempt_teleop` | geometry_msgs/Twist (TwistStamped with `enable_stamped_cmd_vel`), std_msgs/Empty | reliable, volatile, depth 10 (only with `follow_plan`: assisted_teleop.rs) |
 //! | in | `/odom` | nav_msgs/Odometry | best effort (matches reliable and best-effort publishers) |
-//! | in | each `obstacle_layer.<source>.topic` (`scan`) | sensor_msgs/LaserScan or PointCloud2 (`<source>.data_type`) | best effort, depth 5 (only with `obstacle_layer.enabled`, the default, and no `costmap_topic`: obstacle_layer.rs) |
+//! | in | each `obstacle_layer.<source>.topic` (`scan`) | sensor_msgs/LaserScan or PointCloud2 (`<source>.data_type`) | best effort, depth 5 (not with `costmap_topic`; passed over while `obstacle_layer.enabled` is false: obstacle_layer.rs) |
 //! | in | `/tf`, `/tf_static` | tf2_msgs/TFMessage | reliable, depth 100; `/tf_static` transient local (tf2's listener): the TF tree, `map -> odom`, and the odometry `odom -> base_link`, which wins over `/odom` |
 //! | in | `speed_limit_topic` (`speed_limit`) | nav2_msgs/SpeedLimit | reliable, volatile, depth 10 (only with `follow_plan`) |
 //! | in | `keepout_mask_topic` | nav_msgs/OccupancyGrid | reliable, transient local (only when set) |
@@ -869,8 +869,13 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
     if !sources.is_empty() {
         tasks.spawn(obstacle_layer::lay(shared.clone()));
     }
-    for (source, readings) in sources {
-        tasks.spawn(obstacle_layer::receive(shared.clone(), source, readings));
+    for (index, (source, readings)) in sources.into_iter().enumerate() {
+        tasks.spawn(obstacle_layer::receive(
+            shared.clone(),
+            index,
+            source,
+            readings,
+        ));
     }
     for (name, sub) in tf_subs {
         tasks.spawn(inputs::receive_transforms(shared.clone(), name, sub));

@@ -3,14 +3,14 @@
 //! costmap runs its ObstacleLayer between the static map and the inflation.
 //!
 //! Each source's readings ([`receive`], a task per source) are placed in the global frame
-//! through TF at their stamp (the sensor's frame up to the robot, then the robot's pose), clear
-//! the cells their rays cross and mark those their returns fall in, as the source's `clearing`
-//! and `marking` say (planner_core's `ObstacleLayer`; returns outside the source's heights
-//! dropped first); the robot's own footprint is cleared. All sources write one layer, and at
-//! the layer's `update_frequency` ([`lay`]) what changed is handed to the grid
-//! ([`Shared::lay_obstacles`]), which is made again, and the path being followed is checked
-//! against it as against a new map: an obstacle across it is planned round
-//! (`inputs::remake_grid_on_change`). A source that goes quiet for longer than its
+//! through TF at their stamp (the sensor's frame up to the robot, then the robot's pose) and
+//! traced into rays (returns outside the source's heights dropped), the latest kept per source
+//! ([`Seen`]). At the layer's `update_frequency` ([`lay`]) every source's latest reading clears
+//! the cells its rays cross and then marks those its returns fall in, as its `clearing` and
+//! `marking` say (planner_core's `ObstacleLayer`), the robot's own footprint is cleared, and
+//! what changed is handed to the grid ([`Shared::lay_obstacles`]), which is made again; the
+//! path being followed is checked against it as against a new map: an obstacle across it is
+//! planned round (`inputs::remake_grid_on_change`). A source that goes quiet for longer than its
 //! `expected_update_rate` is warned of, as costmap_2d warns of a stale observation buffer.
 //! `obstacle_layer.enabled` may be set at run time: while false, readings are passed over and
 //! grids are made without the layer (`Shared::grid_settings`).
@@ -24,6 +24,7 @@ use log::{debug, info, warn};
 use nalgebra::{Isometry3, Point3};
 use patrol_msgs::sensor_msgs::{LaserScan, PointCloud2};
 use patrol_msgs::std_msgs::Header;
+use planner_core::geometry::Point2;
 use planner_core::grid::obstacle_layer::{cloud_rays, scan_rays, ObstacleLayer, Ray, SourceRules};
 use planner_core::grid::MapInfo;
 use planner_io::parameters::ObservationSource;
@@ -77,9 +78,10 @@ impl Reading {
     }
 }
 
-/// Takes one source's readings into the layer ([`Shared::obstacles`]), and warns once when
-/// none has come for longer than the source's `expected_update_rate` (until one comes).
-pub async fn receive(s: Arc<Shared>, source: ObservationSource, readings: Readings) {
+/// Keeps source `index`'s latest reading, as rays in the global frame, for the layer's updates
+/// ([`Seen::keep`]), and warns once when none has come for longer than the source's
+/// `expected_update_rate` (until one comes).
+pub async fn receive(s: Arc<Shared>, index: usize, source: ObservationSource, readings: Readings) {
     let rules = source.rules(&s.params.obstacle_layer);
     let name = format!("obstacle_layer.{} (`{}`)", source.name, source.topic);
     let expected = (source.expected_update_rate > 0.0)
@@ -99,18 +101,22 @@ pub async fn receive(s: Arc<Shared>, source: ObservationSource, readings: Readin
                 if std::mem::take(&mut quiet) {
                     info!("{name}: readings come again");
                 }
-                let observed = match taken {
+                let traced = match taken {
                     // Switched off at run time: passed over, as Nav2's layer does.
-                    Ok(_) if !s.live.read().expect("lock").obstacles_enabled => Ok(()),
-                    Ok(reading) => observe(&s, reading, &source.sensor_frame, rules).await,
+                    Ok(_) if !s.live.read().expect("lock").obstacles_enabled => Ok(None),
+                    Ok(reading) => traced(&s, reading, &source.sensor_frame, rules).await,
                     Err(why) => Err(Fault { kind: "decode", why }),
                 };
-                if let Err(Fault { kind, why }) = observed {
-                    // One line per kind of fault, not one per reading at the sensor's rate.
-                    if faults.insert(kind) {
-                        warn!("{name}: a reading skipped: {why}");
-                    } else {
-                        debug!("{name}: a reading skipped: {why}");
+                match traced {
+                    Ok(Some(rays)) => s.obstacles.lock().expect("lock").keep(index, rays),
+                    Ok(None) => {}
+                    Err(Fault { kind, why }) => {
+                        // One line per kind of fault, not one per reading at the sensor's rate.
+                        if faults.insert(kind) {
+                            warn!("{name}: a reading skipped: {why}");
+                        } else {
+                            debug!("{name}: a reading skipped: {why}");
+                        }
                     }
                 }
             }
@@ -127,7 +133,8 @@ pub async fn receive(s: Arc<Shared>, source: ObservationSource, readings: Readin
     }
 }
 
-/// Lays what the sources changed on the grid, at most at the layer's `update_frequency`
+/// The layer's updates, at its `update_frequency`: every source's latest reading applied
+/// ([`Shared::update_obstacles`]), and what that changed laid on the grid
 /// ([`Shared::lay_obstacles`]).
 pub async fn lay(s: Arc<Shared>) {
     let period = Duration::from_secs_f64(1.0 / s.params.obstacle_layer.update_frequency);
@@ -135,9 +142,80 @@ pub async fn lay(s: Arc<Shared>) {
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
         tick.tick().await;
-        if let Some(marked) = s.lay_obstacles() {
+        let shared = s.clone();
+        // Tracing every source's reading takes up to tens of milliseconds: off the async threads.
+        let laid = tokio::task::spawn_blocking(move || {
+            shared.update_obstacles();
+            shared.lay_obstacles()
+        })
+        .await;
+        if let Ok(Some(marked)) = laid {
             debug!("obstacle_layer: {marked} cells seen occupied");
         }
+    }
+}
+
+/// What the sources have seen ([`Shared::obstacles`]): the layer on the current map's grid,
+/// each source's latest reading as rays in the global frame, and whether the layer changed
+/// since it was last laid on the grid. As in costmap_2d's ObstacleLayer with
+/// `observation_persistence` 0, each update applies every source's latest reading, its
+/// clearing first and then its marks (one source's rays never clear another's returns), and
+/// a reading is applied again at every update until its source's next one replaces it.
+#[derive(Debug, Default)]
+pub struct Seen {
+    pub layer: Option<ObstacleLayer>,
+    latest: Vec<Option<Vec<Ray>>>,
+    pub changed: bool,
+}
+
+impl Seen {
+    /// Source `index`'s latest reading, for the next update.
+    pub fn keep(&mut self, index: usize, rays: Vec<Ray>) {
+        if self.latest.len() <= index {
+            self.latest.resize_with(index + 1, || None);
+        }
+        self.latest[index] = Some(rays);
+    }
+
+    /// One update on the map's grid `info`: the layer made afresh when the map's size or
+    /// origin changed (a new floor: what was seen on the old one is no longer where it was), as
+    /// costmap_2d's layers are reset when the map resizes (the same map republished keeps
+    /// them); every source's latest reading applied, and the robot's footprint, a disc of
+    /// radius `footprint.1` round `footprint.0`, cleared ([`ObstacleLayer::observe`]).
+    pub fn update(&mut self, info: MapInfo, footprint: Option<(Point2, f64)>) {
+        let Seen {
+            layer,
+            latest,
+            changed,
+        } = self;
+        if layer.as_ref().is_none_or(|l| *l.info() != info) {
+            if layer.is_some() {
+                info!("a map of another size or origin: the obstacles seen on the last one are forgotten");
+            }
+            *changed = true;
+        }
+        let layer = match layer {
+            Some(l) if *l.info() == info => l,
+            _ => layer.insert(ObstacleLayer::new(info)),
+        };
+        let readings: Vec<&[Ray]> = latest.iter().flatten().map(Vec::as_slice).collect();
+        *changed |= layer.observe(&readings, footprint);
+    }
+
+    /// Clears the layer, everything or a `square` (centre in the global frame, side in m,
+    /// inside it or all but it: costmap_2d's clearing regions), and forgets the sources' latest
+    /// readings, so the clearing holds until they see again (Nav2 applies its kept readings at
+    /// its next update). Returns how many cells were marked before and are after; `None`
+    /// before the first update made the layer.
+    pub fn clear(&mut self, square: Option<(Point2, f64, bool)>) -> Option<(usize, usize)> {
+        self.latest.iter_mut().for_each(|l| *l = None);
+        let layer = self.layer.as_mut()?;
+        let before = layer.marked_count();
+        self.changed |= match square {
+            None => layer.clear_all(),
+            Some((center, side, inside)) => layer.clear_square(center, side, inside),
+        };
+        Some((before, layer.marked_count()))
     }
 }
 
@@ -147,29 +225,25 @@ struct Fault {
     why: String,
 }
 
-/// One reading into the layer. The layer is made afresh on the current map's grid when the
-/// map's size or origin changed (a new floor: what was seen on the old one is no longer where
-/// it was), as costmap_2d's layers are reset when the map resizes; the same map republished
-/// keeps what was seen. Nothing happens before the first map, or on a costmap taken as it is.
-/// The sensor is `sensor_frame` when set (the source's), else the reading's own frame.
-/// The reading is checked and traced off the async threads: a cloud of a million points, or a
-/// long raytrace range on a fine map, takes tens of milliseconds.
-async fn observe(
+/// One reading's rays in the global frame, placed through TF at its stamp (the sensor is
+/// `sensor_frame` when set, the source's, else the reading's own frame); `None` before the
+/// first map, or on a costmap taken as it is. Checked and traced off the async threads: a
+/// cloud of a million points takes tens of milliseconds.
+async fn traced(
     s: &Arc<Shared>,
     reading: Reading,
     sensor_frame: &str,
     rules: SourceRules,
-) -> Result<(), Fault> {
-    let Some(info) = s
+) -> Result<Option<Vec<Ray>>, Fault> {
+    let on_map = s
         .map
         .read()
         .expect("lock")
         .as_ref()
-        .filter(|m| !m.is_costmap())
-        .map(|m| *m.source_info())
-    else {
-        return Ok(());
-    };
+        .is_some_and(|m| !m.is_costmap());
+    if !on_map {
+        return Ok(None);
+    }
     let header = reading.header();
     let frame = if sensor_frame.is_empty() {
         &header.frame_id
@@ -183,19 +257,14 @@ async fn observe(
             kind: "frame",
             why: f.message,
         })?;
-    let s = s.clone();
-    tokio::task::spawn_blocking(move || {
-        let rays = rays(&reading, &rules, &sensor)?;
-        trace(&s, &rays, info);
-        Ok(())
-    })
-    .await
-    .unwrap_or_else(|e| {
-        Err(Fault {
-            kind: "task",
-            why: e.to_string(),
+    tokio::task::spawn_blocking(move || rays(&reading, &rules, &sensor).map(Some))
+        .await
+        .unwrap_or_else(|e| {
+            Err(Fault {
+                kind: "task",
+                why: e.to_string(),
+            })
         })
-    })
 }
 
 /// A reading's rays in the global frame, its sensor at `sensor` there; a malformed reading is
@@ -251,34 +320,62 @@ fn rays(
     }
 }
 
-/// `rays` into the layer on the map's grid `info`, then the robot's footprint cleared.
-fn trace(s: &Shared, rays: &[Ray], info: MapInfo) {
-    let robot = s
-        .params
-        .obstacle_layer
-        .footprint_clearing_enabled
-        .then(|| {
-            s.fresh_odom()
-                .or_else(|| s.start.read().expect("lock").map(|(p, _)| p))
-        })
-        .flatten();
-    let radius = s.live.read().expect("lock").config.costmap.robot_radius;
-    let mut obstacles = s.obstacles.lock().expect("lock");
-    let (layer, changed) = &mut *obstacles;
-    if layer.as_ref().is_none_or(|l| *l.info() != info) {
-        if layer.is_some() {
-            info!(
-                "a map of another size or origin: the obstacles seen on the last one are forgotten"
-            );
-        }
-        *layer = Some(ObstacleLayer::new(info));
-        *changed = true;
-    }
-    let Some(layer) = layer.as_mut() else {
-        return;
-    };
-    *changed |= layer.observe(rays);
-    if let Some(robot) = robot {
-        *changed |= layer.clear_disc(robot.position(), radius);
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use planner_core::geometry::Pose2;
+
+    /// Each update applies every source's latest reading, clearing before marking: the camera's
+    /// box, under the lidar's ray, stays while the lidar reads on; a clearing forgets the
+    /// readings, so the next update brings nothing back; the footprint is cleared last.
+    #[test]
+    fn each_update_applies_every_sources_latest_reading_marks_last() {
+        let info = MapInfo {
+            width: 40,
+            height: 20,
+            resolution: 0.1,
+            origin: Pose2::new(0.0, 0.0, 0.0),
+        };
+        let at = |x: f64| Point2::new(x, 1.05);
+        let cell = |x: f64| info.world_to_cell(at(x)).unwrap();
+        let lidar = Ray {
+            clear: Some((at(0.55), at(2.55))),
+            mark: Some(at(2.55)),
+        };
+        let camera = Ray {
+            clear: None,
+            mark: Some(at(1.55)),
+        };
+        let mut seen = Seen::default();
+        seen.keep(1, vec![camera]);
+        seen.keep(0, vec![lidar]);
+        seen.update(info, None);
+        let layer = |seen: &Seen| seen.layer.clone().unwrap();
+        assert!(
+            seen.changed
+                && layer(&seen).is_marked(cell(1.55))
+                && layer(&seen).is_marked(cell(2.55))
+        );
+        seen.changed = false;
+        seen.keep(0, vec![lidar]);
+        seen.update(info, None);
+        assert!(
+            !seen.changed && layer(&seen).is_marked(cell(1.55)),
+            "the camera's box stays"
+        );
+        assert_eq!(seen.clear(None), Some((2, 0)));
+        seen.update(info, None);
+        assert_eq!(
+            layer(&seen).marked_count(),
+            0,
+            "the readings went with the clearing"
+        );
+        seen.keep(1, vec![camera]);
+        seen.update(info, Some((at(1.6), 0.2)));
+        assert_eq!(layer(&seen).marked_count(), 0, "under the robot");
+        // Another map: the layer made afresh on its grid.
+        let other = MapInfo { width: 30, ..info };
+        seen.update(other, None);
+        assert_eq!(*layer(&seen).info(), other);
     }
 }

@@ -2,9 +2,10 @@
 //! waypoint it reaches, what an inspection robot stops there for (a gauge, a cabinet's
 //! indicator lights, a meter in a substation).
 //!
-//! The camera's frames ([`receive`]) are counted and the latest kept; at a waypoint the patrol
-//! waits for a frame taken after its arrival (patrol.rs: a frame from before it may show the
-//! aisle on the way), then [`save`] writes it as a PNG, `<save_dir>/<index>_<seconds>.png`.
+//! The camera's frames ([`receive`]) are counted and the latest kept; at a waypoint, after the
+//! pause, the patrol waits until a frame has come since its arrival (patrol.rs: Nav2 takes the
+//! latest frame whenever it came, which may show the aisle on the way), then [`save`] writes
+//! the latest as a PNG, `<save_dir>/<index>_<seconds>.png`.
 //! A frame the node cannot read (an encoding it does not know, a size its data does not fill,
 //! more pixels than [`MAX_PIXELS`]) or a folder it cannot write to fails the waypoint's task
 //! with the reason, as Nav2's executor fails when cv_bridge or imwrite throws; the patrol goes
@@ -75,8 +76,9 @@ pub async fn save(
 }
 
 /// A frame as a PNG file's bytes. The encodings cv_bridge gives Nav2's executor most often:
-/// `rgb8`, `bgr8`, `rgba8`, `bgra8`, `mono8`, and `mono16` and `16UC1` (a depth image, kept at
-/// 16 bits) in either byte order; rows `step` bytes apart, at least a row's pixels each.
+/// `rgb8`, `bgr8`, `rgba8`, `bgra8`, `mono8` (and its `8UC1`), and `mono16` and `16UC1` (a
+/// depth image, kept at 16 bits) in either byte order; rows `step` bytes apart, at least a
+/// row's pixels each.
 pub fn png_from_frame(frame: &Image) -> Result<Vec<u8>, String> {
     let (width, height) = (frame.width, frame.height);
     let channels: u32 = match frame.encoding.as_str() {
@@ -86,7 +88,7 @@ pub fn png_from_frame(frame: &Image) -> Result<Vec<u8>, String> {
         "mono16" | "16UC1" => 2,
         other => {
             return Err(format!(
-            "encoding `{other}`: this node saves rgb8, bgr8, rgba8, bgra8, mono8, mono16 and 16UC1"
+            "encoding `{other}`: this node saves rgb8, bgr8, rgba8, bgra8, mono8, 8UC1, mono16 and 16UC1"
         ))
         }
     };

@@ -213,9 +213,10 @@ pub struct Shared {
     /// The keepout mask as last received on `keepout_mask_topic` (Nav2's keepout filter mask,
     /// in the global frame), laid over every grid made from now on.
     pub keepout: RwLock<Option<Arc<GridMap>>>,
-    /// The obstacle layer as the scans and the clearing services leave it (obstacle_layer.rs),
-    /// and whether it changed since it was last laid on the grid.
-    pub obstacles: Mutex<(Option<ObstacleLayer>, bool)>,
+    /// The obstacle layer as the sources' readings and the clearing services leave it, each
+    /// source's latest reading, and whether the layer changed since it was last laid on the
+    /// grid (obstacle_layer.rs).
+    pub obstacles: Mutex<crate::obstacle_layer::Seen>,
     /// The obstacles as last laid on the grid ([`Shared::lay_obstacles`]).
     pub seen_obstacles: RwLock<Option<Arc<ObstacleLayer>>>,
     /// Held while a grid is made again for changed costmap parameters, so that two requests
@@ -362,7 +363,7 @@ impl Shared {
             live: RwLock::new(live),
             map: RwLock::new(None),
             keepout: RwLock::new(None),
-            obstacles: Mutex::new((None, false)),
+            obstacles: Mutex::new(Default::default()),
             seen_obstacles: RwLock::new(None),
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
@@ -451,20 +452,50 @@ impl Shared {
         }
     }
 
+    /// Applies every source's latest reading to the obstacle layer, on the current map's grid
+    /// (not on a costmap taken as it is), then clears the robot's footprint with
+    /// `footprint_clearing_enabled` ([`crate::obstacle_layer::Seen::update`]). Blocking: the
+    /// readings are traced.
+    pub fn update_obstacles(&self) {
+        let Some(info) = self
+            .map
+            .read()
+            .expect("lock")
+            .as_ref()
+            .filter(|m| !m.is_costmap())
+            .map(|m| *m.source_info())
+        else {
+            return;
+        };
+        let footprint = self
+            .params
+            .obstacle_layer
+            .footprint_clearing_enabled
+            .then(|| {
+                self.fresh_odom()
+                    .or_else(|| self.start.read().expect("lock").map(|(p, _)| p))
+            })
+            .flatten()
+            .map(|robot| {
+                let radius = self.live.read().expect("lock").config.costmap.robot_radius;
+                (robot.position(), radius)
+            });
+        self.obstacles.lock().expect("lock").update(info, footprint);
+    }
+
     /// Lays the obstacle layer on the grid, if it changed since it last was: the grid is made
     /// again from it at once ([`Shared::settings_changed`]). Returns how many cells are marked.
     pub fn lay_obstacles(&self) -> Option<usize> {
         let marked = {
-            let mut obstacles = self.obstacles.lock().expect("lock");
-            let (layer, changed) = &mut *obstacles;
-            if !std::mem::take(changed) {
+            let mut seen = self.obstacles.lock().expect("lock");
+            if !std::mem::take(&mut seen.changed) {
                 return None;
             }
-            let seen = layer.clone().map(Arc::new);
-            let marked = seen.as_ref().map_or(0, |l| l.marked_count());
+            let laid = seen.layer.clone().map(Arc::new);
+            let marked = laid.as_ref().map_or(0, |l| l.marked_count());
             // Written under the layer's lock: a copy taken before a clearing can never be
             // written after the clearing's own, which would bring back what was cleared.
-            *self.seen_obstacles.write().expect("lock") = seen;
+            *self.seen_obstacles.write().expect("lock") = laid;
             marked
         };
         self.settings_changed.notify_one();
@@ -472,23 +503,14 @@ impl Shared {
     }
 
     /// Clears the obstacle layer, everything or a `square` (centre in the global frame, side in
-    /// m, inside it or all but it: costmap_2d's clearing regions), and lays it on the grid at
-    /// once, not at the layer's next update: a recovery's clearing, as Nav2's trees clear both
+    /// m, inside it or all but it: costmap_2d's clearing regions), forgets the sources' latest
+    /// readings ([`crate::obstacle_layer::Seen::clear`]), and lays it on the grid at once, not
+    /// at the layer's next update: a recovery's clearing, as Nav2's trees clear both
     /// costmaps, and the clearing services'. Returns how many cells were marked before and are
-    /// after; `None` before any reading made the layer. Blocking: the scans' task holds the
-    /// layer while it traces.
+    /// after; `None` before the layer's first update. Blocking: an update holds the layer
+    /// while it traces.
     pub fn clear_obstacles(&self, square: Option<(Point2, f64, bool)>) -> Option<(usize, usize)> {
-        let counts = {
-            let mut obstacles = self.obstacles.lock().expect("lock");
-            let (layer, changed) = &mut *obstacles;
-            let layer = layer.as_mut()?;
-            let before = layer.marked_count();
-            *changed |= match square {
-                None => layer.clear_all(),
-                Some((center, side, inside)) => layer.clear_square(center, side, inside),
-            };
-            (before, layer.marked_count())
-        };
+        let counts = self.obstacles.lock().expect("lock").clear(square)?;
         self.lay_obstacles();
         Some(counts)
     }
@@ -1177,10 +1199,13 @@ mod tests {
         let mut layer = ObstacleLayer::new(*map.info());
         // A return in cell (20, 5), seen from half a metre before it.
         let at = Point2::new(2.05, 0.55);
-        assert!(layer.observe(&[Ray {
-            clear: Some((Point2::new(1.55, 0.55), at)),
-            mark: Some(at),
-        }]));
+        assert!(layer.observe(
+            &[&[Ray {
+                clear: Some((Point2::new(1.55, 0.55), at)),
+                mark: Some(at),
+            }]],
+            None
+        ));
         let seen = GridSettings {
             obstacles: Some(Arc::new(layer)),
             ..settings.clone()

@@ -15,6 +15,7 @@ use crate::geometry::{Cell, Point2};
 use crate::grid::map::{GridMap, MapInfo};
 use crate::grid::raycast::supercover;
 use nalgebra::Point3;
+use std::collections::HashSet;
 
 /// How the layer reads one observation source: Nav2's ObstacleLayer parameters of a source (its
 /// `scan:` block in `observation_sources`), with the layer's own obstacle heights.
@@ -227,50 +228,64 @@ impl ObstacleLayer {
         self.marked[self.info.index(c)]
     }
 
-    /// One observation: every ray clears first, then every return is marked, so a return is
-    /// not cleared by its neighbour's ray (costmap_2d's `raytraceFreespace` before marking).
-    /// Parts of rays off the map are skipped. Returns whether any cell changed.
-    pub fn observe(&mut self, rays: &[Ray]) -> bool {
-        let mut changed = false;
-        for &(from, to) in rays.iter().filter_map(|r| r.clear.as_ref()) {
+    /// One update from the sources' observations, as costmap_2d's ObstacleLayer makes it:
+    /// every observation's rays clear first, then every observation's returns are marked, so a
+    /// return is cleared neither by its neighbour's ray nor by another source's (a lidar's rays
+    /// passing over a low box a depth camera sees leave it marked); last, the robot's
+    /// `footprint` (a disc: centre, radius in m), if given, is cleared, as
+    /// `footprint_clearing_enabled` clears it, so that a return off the robot's own body or
+    /// off someone brushing past does not leave it standing in an obstacle. Parts of rays off
+    /// the map are skipped. Returns whether any cell ends the update otherwise than it began it
+    /// (a cell cleared and marked again is no change: the same readings applied again change
+    /// nothing, and the grid is not made again for them).
+    pub fn observe(&mut self, observations: &[&[Ray]], footprint: Option<(Point2, f64)>) -> bool {
+        let mut cleared = HashSet::new();
+        let rays = || observations.iter().flat_map(|o| o.iter());
+        for (from, to) in rays().filter_map(|r| r.clear) {
             let (a, b) = (self.info.world_to_grid(from), self.info.world_to_grid(to));
             let end = Cell::containing(b);
             supercover(a, b, |c| {
-                if c != end && self.info.contains(c) {
-                    changed |= self.set(c, false);
+                if c != end && self.info.contains(c) && self.set(c, false) {
+                    cleared.insert(self.info.index(c));
                 }
                 true
             });
         }
-        for p in rays.iter().filter_map(|r| r.mark) {
-            if let Some(c) = self.info.world_to_cell(p) {
-                changed |= self.set(c, true);
+        let under_robot: HashSet<usize> = footprint
+            .map(|(center, radius)| self.disc(center, radius))
+            .unwrap_or_default();
+        for &i in &under_robot {
+            if self.set(self.info.cell_at(i), false) {
+                cleared.insert(i);
             }
         }
-        changed
-    }
-
-    /// Clears every cell whose centre is within `radius` (m) of `center` (the map frame): the
-    /// robot's own footprint, as costmap_2d's `footprint_clearing_enabled` clears it, so that
-    /// a return off the robot's body, or off someone brushing past, does not leave it standing
-    /// in an obstacle it cannot plan out of. Returns whether any cell changed.
-    pub fn clear_disc(&mut self, center: Point2, radius: f64) -> bool {
-        let Some(c) = self.info.world_to_cell(center) else {
-            return false;
-        };
-        let reach = (radius / self.info.resolution).ceil() as i32 + 1;
-        let mut changed = false;
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                let cell = c.offset(dx, dy);
-                if self.info.contains(cell)
-                    && (self.info.cell_to_world(cell) - center).norm() <= radius
-                {
-                    changed |= self.set(cell, false);
+        let mut marked = false;
+        for p in rays().filter_map(|r| r.mark) {
+            if let Some(c) = self.info.world_to_cell(p) {
+                let i = self.info.index(c);
+                if !under_robot.contains(&i) && self.set(c, true) && !cleared.remove(&i) {
+                    marked = true;
                 }
             }
         }
-        changed
+        marked || !cleared.is_empty()
+    }
+
+    /// The cells (their indices) whose centres are within `radius` (m) of `center` (the map
+    /// frame), on the map.
+    fn disc(&self, center: Point2, radius: f64) -> HashSet<usize> {
+        let Some(c) = self.info.world_to_cell(center) else {
+            return HashSet::new();
+        };
+        let reach = (radius / self.info.resolution).ceil() as i32 + 1;
+        (-reach..=reach)
+            .flat_map(|dy| (-reach..=reach).map(move |dx| c.offset(dx, dy)))
+            .filter(|&cell| {
+                self.info.contains(cell)
+                    && (self.info.cell_to_world(cell) - center).norm() <= radius
+            })
+            .map(|cell| self.info.index(cell))
+            .collect()
     }
 
     /// Forgets everything seen (costmap_2d's ClearEntireCostmap on a clearable layer).
@@ -378,11 +393,14 @@ mod tests {
     fn returns_are_marked_and_rays_clear_what_they_pass() {
         let mut layer = ObstacleLayer::new(info());
         let one = |r: f32| scan_rays(&[r], 0.0, 0.1, 0.05, 10.0, &rules(), sensor);
-        assert!(layer.observe(&one(1.5)));
+        assert!(layer.observe(&[&one(1.5)], None));
         assert!(layer.is_marked(cell_at(2.05, 1.05)));
         assert_eq!(layer.marked_count(), 1);
-        assert!(!layer.observe(&one(1.5)), "the same scan changes nothing");
-        assert!(layer.observe(&one(2.0)));
+        assert!(
+            !layer.observe(&[&one(1.5)], None),
+            "the same scan changes nothing"
+        );
+        assert!(layer.observe(&[&one(2.0)], None));
         assert!(
             !layer.is_marked(cell_at(2.05, 1.05)),
             "a ray through it clears it"
@@ -440,7 +458,7 @@ mod tests {
             raytrace_min_range: 1.0,
             ..rules()
         };
-        layer.observe(&scan(&[2.8], &near_kept));
+        layer.observe(&[&scan(&[2.8], &near_kept)], None);
         let still: Vec<i32> = (0..40)
             .filter(|&x| layer.is_marked(Cell::new(x, 10)))
             .collect();
@@ -476,7 +494,7 @@ mod tests {
         let low = cloud_rays(origin, [Point3::new(2.95, 1.05, -0.5)], &below);
         assert_eq!(low[0].mark, None);
         let mut layer = ObstacleLayer::new(info());
-        assert!(layer.observe(&rays));
+        assert!(layer.observe(&[&rays], None));
         assert!(layer.is_marked(cell_at(2.05, 1.05)));
         assert_eq!(layer.marked_count(), 1);
     }
@@ -512,7 +530,7 @@ mod tests {
         // A marked row; a marking-only source's ray across it leaves it.
         let mut layer = ObstacleLayer::new(info());
         layer.set(cell_at(1.55, 1.05), true);
-        layer.observe(&cloud_rays(origin, box_ahead, &marks_only));
+        layer.observe(&[&cloud_rays(origin, box_ahead, &marks_only)], None);
         assert!(layer.is_marked(cell_at(1.55, 1.05)));
         assert!(layer.is_marked(cell_at(2.05, 1.05)));
         // The source keeps up to 3 m, the layer marks up to 1 m: a shelf 1.5 m up clears.
@@ -523,7 +541,7 @@ mod tests {
         };
         let shelf = cloud_rays(origin, [Point3::new(2.05, 1.05, 1.5)], &high);
         assert!(shelf[0].mark.is_none() && shelf[0].clear.is_some());
-        layer.observe(&shelf);
+        layer.observe(&[&shelf], None);
         assert!(!layer.is_marked(cell_at(1.55, 1.05)), "its ray clears");
         // Scans alike: a level scanner 0.2 m up with the layer's floor at 0.5 m marks nothing.
         let raised = SourceRules {
@@ -534,13 +552,42 @@ mod tests {
         assert!(scan[0].mark.is_none() && scan[0].clear.is_some());
     }
 
+    /// Two sources in one update: the lidar's ray passing over a low box the camera sees
+    /// leaves it marked, whichever comes first; the lidar alone in a later update clears it (a
+    /// 2-D layer, as Nav2's ObstacleLayer).
+    #[test]
+    fn one_sources_rays_do_not_clear_anothers_returns_in_the_same_update() {
+        let camera = cloud_rays(
+            Point3::new(0.55, 1.05, 0.5),
+            [Point3::new(1.55, 1.05, 0.1)],
+            &rules(),
+        );
+        let lidar = scan_rays(&[2.0], 0.0, 0.0, 0.1, 10.0, &rules(), sensor);
+        for update in [[&lidar, &camera], [&camera, &lidar]] {
+            let mut layer = ObstacleLayer::new(info());
+            let update: Vec<&[Ray]> = update.iter().map(|o| o.as_slice()).collect();
+            assert!(layer.observe(&update, None));
+            assert!(layer.is_marked(cell_at(1.55, 1.05)), "the box");
+            assert!(layer.is_marked(cell_at(2.55, 1.05)), "the lidar's return");
+            assert!(
+                !layer.observe(&update, None),
+                "cleared and marked again: no change"
+            );
+            layer.observe(&[&lidar], None);
+            assert!(!layer.is_marked(cell_at(1.55, 1.05)));
+        }
+    }
+
     /// A rotated sensor's rays go where its pose puts them; rays off the map are skipped.
     #[test]
     fn rays_follow_the_sensor_pose_and_stay_on_the_map() {
         let mut layer = ObstacleLayer::new(info());
         // Facing +y from (0.55, 0.55): a return 1 m ahead is at (0.55, 1.55).
         let up = |x: f64, y: f64| Point3::new(0.55 - y, 0.55 + x, 0.2);
-        layer.observe(&scan_rays(&[1.0], 0.0, 0.0, 0.0, 10.0, &rules(), up));
+        layer.observe(
+            &[&scan_rays(&[1.0], 0.0, 0.0, 0.0, 10.0, &rules(), up)],
+            None,
+        );
         assert!(layer.is_marked(cell_at(0.55, 1.55)));
         // From off the map, through it and off it again.
         let outside = |x: f64, y: f64| Point3::new(-1.0 + x, 1.05 + y, 0.2);
@@ -549,27 +596,38 @@ mod tests {
             raytrace_max_range: 10.0,
             ..rules()
         };
-        layer.observe(&scan_rays(&[6.0], 0.0, 0.0, 0.0, 10.0, &long, outside));
+        layer.observe(
+            &[&scan_rays(&[6.0], 0.0, 0.0, 0.0, 10.0, &long, outside)],
+            None,
+        );
         assert_eq!(layer.marked_count(), 1, "the return is off the map");
     }
 
-    /// The robot's footprint is cleared: the cells within its radius, no others.
+    /// The robot's footprint is cleared last in an update: the cells within its radius, no
+    /// others, a return under the robot too (a reading of its own body); the same update again
+    /// is no change.
     #[test]
     fn the_footprint_is_cleared() {
         let mut layer = ObstacleLayer::new(info());
         for x in 0..40 {
             layer.set(Cell::new(x, 10), true);
         }
+        let robot = Some((Point2::new(2.0, 1.05), 0.3));
+        // A return on the robot's body, 0.1 m from its centre.
+        let body = [Ray {
+            clear: None,
+            mark: Some(Point2::new(2.1, 1.05)),
+        }];
         // Centres at x = 0.05 + 0.1 k on row 10 (y 1.05): within 0.3 m of (2.0, 1.05) are
         // cells 17..=22 (1.75..2.25 m).
-        assert!(layer.clear_disc(Point2::new(2.0, 1.05), 0.3));
+        assert!(layer.observe(&[&body], robot));
         let kept: Vec<i32> = (0..40)
             .filter(|&x| layer.is_marked(Cell::new(x, 10)))
             .collect();
         assert_eq!(kept, (0..17).chain(23..40).collect::<Vec<_>>());
-        assert!(!layer.clear_disc(Point2::new(2.0, 1.05), 0.3));
+        assert!(!layer.observe(&[&body], robot));
         assert!(
-            !layer.clear_disc(Point2::new(-5.0, 1.05), 0.3),
+            !layer.observe(&[], Some((Point2::new(-5.0, 1.05), 0.3))),
             "off the map"
         );
     }

@@ -264,17 +264,19 @@ impl Default for InputAtWaypointParams {
 }
 
 /// Nav2's PhotoAtWaypoint task executor (its parameter names and defaults, but off by
-/// default): at each waypoint reached, after the pause, the first camera frame taken after the
-/// arrival is saved as `<save_dir>/<waypoint index>_<seconds>.<image_format>`, the seconds the
-/// node's clock's when it is saved (Nav2 names it by the waypoint's own stamp, so a second
-/// pass overwrites the first's photos).
+/// default): at each waypoint reached, after the pause, the latest camera frame, once one has
+/// come since the arrival (Nav2 takes the latest, whenever it came), is saved as
+/// `<save_dir>/<waypoint index>_<seconds>.<image_format>`, the seconds the node's clock's when
+/// it is saved (Nav2 names it by the waypoint's own stamp, so a second pass overwrites the
+/// first's photos).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PhotoAtWaypointParams {
     /// Take the photos. Default false.
     pub enabled: bool,
-    /// The camera's sensor_msgs/Image topic (reliable, as rclcpp's SystemDefaultsQoS that Nav2
-    /// subscribes with; a best-effort camera still matches). Nav2's `/camera/color/image_raw`.
+    /// The camera's sensor_msgs/Image topic, subscribed best effort, so that a camera
+    /// publishing with the sensor-data QoS matches as well as a reliable one (Nav2 subscribes
+    /// reliable, which a best-effort camera never matches). Nav2's `/camera/color/image_raw`.
     pub image_topic: String,
     /// The folder the photos go to, made when missing. Nav2's `/tmp/waypoint_images`.
     pub save_dir: String,
@@ -1682,6 +1684,11 @@ mod tests {
                 "source_typo.yaml",
                 "    obstacle_layer: {scan: {topci: /scan}}\n",
                 "obstacle_layer.scan: unknown field `topci`",
+            ),
+            (
+                "source_named_as_a_key.yaml",
+                "    obstacle_layer: {observation_sources: scan enabled}\n",
+                "`enabled`, a key of the layer's own",
             ),
             (
                 "source_twice.yaml",

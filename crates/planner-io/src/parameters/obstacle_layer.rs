@@ -160,6 +160,18 @@ impl Default for ObstacleLayerParams {
 /// The most observation sources the layer reads: each is a subscription and a task.
 pub const MAX_OBSERVATION_SOURCES: usize = 16;
 
+/// The layer's own keys ([`ObstacleLayerBlock`]'s fields): every other key of the block is a
+/// source's, and no source may be named like one of these.
+const LAYER_KEYS: [&str; 7] = [
+    "plugin",
+    "enabled",
+    "observation_sources",
+    "footprint_clearing_enabled",
+    "min_obstacle_height",
+    "max_obstacle_height",
+    "update_frequency",
+];
+
 /// The Nav2 plugin an `obstacle_layer.plugin` may name: the layer this node runs.
 const OBSTACLE_LAYER_PLUGIN: &str = "nav2_costmap_2d::ObstacleLayer";
 
@@ -230,6 +242,11 @@ impl TryFrom<ObstacleLayerBlock> for ObstacleLayerParams {
         }
         let mut sources: Vec<ObservationSource> = Vec::with_capacity(names.len());
         for name in &names {
+            if LAYER_KEYS.contains(name) {
+                return Err(format!(
+                    "obstacle_layer.observation_sources names `{name}`, a key of the layer's own: name the source otherwise"
+                ));
+            }
             if sources.iter().any(|s| s.name == *name) {
                 return Err(format!(
                     "obstacle_layer.observation_sources names `{name}` twice"
@@ -251,7 +268,8 @@ impl TryFrom<ObstacleLayerBlock> for ObstacleLayerParams {
         }
         if let Some(key) = b.blocks.keys().next() {
             return Err(format!(
-                "unknown parameter `obstacle_layer.{key}`: neither a key of the layer (enabled, observation_sources, footprint_clearing_enabled, min_obstacle_height, max_obstacle_height, update_frequency, plugin) nor a source `observation_sources` names (`{}`)",
+                "unknown parameter `obstacle_layer.{key}`: neither a key of the layer ({}) nor a source `observation_sources` names (`{}`)",
+                LAYER_KEYS.join(", "),
                 b.observation_sources
             ));
         }
@@ -299,5 +317,26 @@ impl ObstacleLayerParams {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`LAYER_KEYS`] are the block's own fields, written out in full (with a plugin named).
+    #[test]
+    fn the_layer_keys_are_the_blocks_fields() {
+        let mut block = ObstacleLayerBlock::from(ObstacleLayerParams {
+            sources: vec![],
+            ..ObstacleLayerParams::default()
+        });
+        block.plugin = OBSTACLE_LAYER_PLUGIN.into();
+        let written = ros_parameters::field_names(&block);
+        let mut keys: Vec<&str> = written.iter().map(String::as_str).collect();
+        let mut expected = LAYER_KEYS.to_vec();
+        keys.sort_unstable();
+        expected.sort_unstable();
+        assert_eq!(keys, expected);
     }
 }
