@@ -132,6 +132,12 @@ def test_costmap_updates_are_written_into_the_costmap(tmp_path):
         assert set_double("costmap.inflation_radius", held).successful
         taken = set_double("search.cost_travel_multiplier", 3.0)
         assert taken.successful, taken.reason
+        # The node's own obstacle layer does not run on Nav2's costmap: switching it is refused
+        # (its value at start, declared, passed: the node came up).
+        off = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False)
+        request = SetParameters.Request(parameters=[Parameter(name="obstacle_layer.enabled", value=off)])
+        switched = call_service(ros, SetParameters, "/patrol_planner/set_parameters", request).results[0]
+        assert not switched.successful and "own obstacle layer" in switched.reason, switched
     finally:
         ros.close()
         stop_binary(proc)

@@ -313,11 +313,23 @@ pub async fn run(file: ParameterFile, naming: Naming) -> Result<()> {
                 return answer;
             }
             validate_parameter(name, value)?;
-            if name == OBSTACLES_ENABLED && !on_check.params.costmap_topic.is_empty() {
-                return Err(format!(
-                    "{name}: the node plans on `{}`, whose costmap node has its own obstacle layer",
-                    on_check.params.costmap_topic
-                ));
+            // On a costmap taken as it is the layer does not run: a change is refused (the value
+            // held passes, as it must when the parameter is declared at start).
+            if let ParameterValue::Boolean(on) = value {
+                let held = on_check
+                    .live
+                    .read()
+                    .map_err(|_| "state lock poisoned".to_string())?
+                    .obstacles_enabled;
+                if name == OBSTACLES_ENABLED
+                    && *on != held
+                    && !on_check.params.costmap_topic.is_empty()
+                {
+                    return Err(format!(
+                        "{name}: the node plans on `{}`, whose costmap node has its own obstacle layer",
+                        on_check.params.costmap_topic
+                    ));
+                }
             }
             let number = match value {
                 ParameterValue::Double(v) => *v,
