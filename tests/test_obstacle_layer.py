@@ -9,6 +9,7 @@ recovery, the first of Nav2's round robin. A depth camera's sensor_msgs/PointClo
 same way, its floor and ceiling dropped by height; a scanner and a camera mark one layer."""
 import contextlib
 import math
+import time
 
 import numpy as np
 import pytest
@@ -293,8 +294,10 @@ def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
     the laser's raytrace range, sees a wall 3.3 m ahead across that side. The plan goes round
     the other side: both sources' marks are in the one layer the grid is made from, and a low
     box the camera sees under the laser's rays stays marked through every update (clearing
-    first, then marking, as Nav2's layer updates). When the
-    camera goes quiet beyond its expected_update_rate the log says so, and its wall stays."""
+    first, then marking, as Nav2's layer updates). When the camera goes quiet beyond its
+    expected_update_rate the log says so, and plans fail with TIMEOUT after
+    costmap_update_timeout, as planner_server's on a costmap that is not current, until it
+    reads again."""
     from nav2_msgs.srv import GetCostmap
 
     layer = ("{update_frequency: 5.0, observation_sources: scan camera, "
@@ -343,4 +346,13 @@ def test_a_scanner_and_a_camera_mark_one_layer(tmp_path):
         camera.on = False
         ros.spin_until(lambda: log.read_text().count(quiet) > before, 10,
                        "the log's word that the camera went quiet")
-        assert other_side(), "the camera's wall stays while nothing clears it"
+        # The costmap is not current: a plan waits costmap_update_timeout (1 s) for the camera,
+        # then fails with TIMEOUT, as planner_server's does; with the camera back, the plan is
+        # round its wall again (kept while it was quiet).
+        started = time.time()
+        assert plan(ros) == []
+        assert time.time() - started >= 0.9
+        stale = "no plan: the costmap is not current: obstacle_layer.camera (`/camera/points`): no reading for"
+        ros.spin_until(lambda: stale in log.read_text(), 5, "the log's word why there is no plan")
+        camera.on = True
+        ros.spin_until(other_side, 10, "a plan round the camera's wall once the camera reads again")

@@ -165,6 +165,8 @@ pub async fn lay(s: Arc<Shared>) {
 pub struct Seen {
     pub layer: Option<ObstacleLayer>,
     latest: Vec<Option<Vec<Ray>>>,
+    /// When each source's latest reading was kept (costmap_2d's buffer's `last_updated_`).
+    kept_at: Vec<Option<std::time::Instant>>,
     pub changed: bool,
 }
 
@@ -173,8 +175,15 @@ impl Seen {
     pub fn keep(&mut self, index: usize, rays: Vec<Ray>) {
         if self.latest.len() <= index {
             self.latest.resize_with(index + 1, || None);
+            self.kept_at.resize(index + 1, None);
         }
         self.latest[index] = Some(rays);
+        self.kept_at[index] = Some(std::time::Instant::now());
+    }
+
+    /// When source `index`'s latest reading was kept, if one was.
+    pub fn kept_at(&self, index: usize) -> Option<std::time::Instant> {
+        self.kept_at.get(index).copied().flatten()
     }
 
     /// One update on the map's grid `info`: the layer made afresh when the map's size or
@@ -187,6 +196,7 @@ impl Seen {
             layer,
             latest,
             changed,
+            ..
         } = self;
         if layer.as_ref().is_none_or(|l| *l.info() != info) {
             if layer.is_some() {
@@ -318,6 +328,27 @@ fn rays(
             ))
         }
     }
+}
+
+/// The first source the layer waits for, if any: one with an `expected_update_rate` whose
+/// latest reading is older than it (none since the node started counts from then), as
+/// costmap_2d's ObservationBuffer is not current; a name and why, for the plan's TIMEOUT. None
+/// while the layer is off, or on a costmap taken as it is.
+pub fn overdue_source(s: &Shared) -> Option<String> {
+    let layer = &s.params.obstacle_layer;
+    if !s.params.costmap_topic.is_empty() || !s.live.read().expect("lock").obstacles_enabled {
+        return None;
+    }
+    let seen = s.obstacles.lock().expect("lock");
+    layer.sources.iter().enumerate().find_map(|(i, source)| {
+        let since = seen.kept_at(i).unwrap_or(s.started).elapsed().as_secs_f64();
+        (source.expected_update_rate > 0.0 && since > source.expected_update_rate).then(|| {
+            format!(
+                "obstacle_layer.{} (`{}`): no reading for {since:.2} s, where one should come every {:.2} s",
+                source.name, source.topic, source.expected_update_rate
+            )
+        })
+    })
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use crate::drive::{hand_topic_goal_to_recoveries, DriveEnd};
 use crate::outputs::Outputs;
 use crate::result::{Failure, Outcome, ResultCode};
 use crate::state::{GoalRequest, GoalSlot, Handover, MapState, Shared};
-use log::{error, info};
+use log::{error, info, warn};
 use patrol_msgs::nav_msgs::{GetPlanRequest, GetPlanResponse, Path};
 use planner_core::config::PlannerConfig;
 use planner_core::geometry::{Point2, Pose2};
@@ -263,6 +263,17 @@ pub async fn plan_off_thread(
 ) -> Outcome {
     let s2 = s.clone();
     let answering = planner.unwrap_or(s.live.read().expect("lock").planner);
+    if let Err(why) = wait_for_current_costmap(s).await {
+        warn!("no plan: the costmap is not current: {why}");
+        return Outcome::failed(
+            answering,
+            0,
+            Failure::new(
+                ResultCode::Timeout,
+                format!("the costmap is not current: {why}"),
+            ),
+        );
+    }
     tokio::task::spawn_blocking(move || {
         plan(
             &s2,
@@ -277,6 +288,21 @@ pub async fn plan_off_thread(
     })
     .await
     .unwrap_or_else(|e| Outcome::failed(answering, 0, task_failure(e)))
+}
+
+/// Waits, as planner_server's `waitForCostmap`, up to `costmap_update_timeout` for every
+/// obstacle layer source with an `expected_update_rate` to have read within it; the overdue
+/// source if one stays so.
+async fn wait_for_current_costmap(s: &Shared) -> Result<(), String> {
+    let deadline = Instant::now() + Duration::from_secs_f64(s.params.costmap_update_timeout);
+    loop {
+        match crate::obstacle_layer::overdue_source(s) {
+            None => return Ok(()),
+            Some(why) if Instant::now() >= deadline => return Err(why),
+            // planner_server polls at 100 Hz.
+            Some(_) => tokio::time::sleep(Duration::from_millis(10)).await,
+        }
+    }
 }
 
 /// A planning task that did not return: a panic in a planner is a bug, never silent. It is

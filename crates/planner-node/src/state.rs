@@ -204,6 +204,9 @@ fn same<T>(a: &Option<Arc<T>>, b: &Option<Arc<T>>) -> bool {
 pub struct Shared {
     /// The node's own parameters (frames, map, follower).
     pub params: NodeParams,
+    /// When the node started: a sensor that has sent nothing yet is overdue from then
+    /// (`obstacle_layer::overdue_source`).
+    pub started: Instant,
     /// The planning parameters from the file; `live` overrides the ones set at run time.
     pub planning: PlannerConfig,
     pub live: RwLock<Live>,
@@ -359,6 +362,7 @@ impl Shared {
                 crate::lifecycle::State::Unconfigured
             }),
             params,
+            started: Instant::now(),
             planning,
             live: RwLock::new(live),
             map: RwLock::new(None),

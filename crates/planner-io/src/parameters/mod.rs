@@ -91,6 +91,12 @@ pub struct NodeParams {
     /// its stamp (or for its frame to appear on `/tf`) before it fails with TF_ERROR. At most
     /// 10 s.
     pub transform_tolerance: f64,
+    /// Nav2's planner_server `costmap_update_timeout` (s): a plan asked for while an obstacle
+    /// layer source with an `expected_update_rate` has been quiet for longer than it (the
+    /// costmap is not current, in costmap_2d's words) waits up to this long for the source,
+    /// then fails with TIMEOUT (207), as planner_server's `waitForCostmap` does. Nav2's 1; at
+    /// most 60.
+    pub costmap_update_timeout: f64,
     /// Configure and activate itself at start (lifecycle), as without a lifecycle manager. Set
     /// false when Nav2's lifecycle_manager manages the node: it then starts unconfigured and
     /// plans only once activated.
@@ -411,6 +417,7 @@ impl Default for NodeParams {
             control_rate_hz: 20.0,
             pose_timeout: 0.5,
             transform_tolerance: 0.3,
+            costmap_update_timeout: 1.0,
             autostart: true,
             use_final_approach_orientation: false,
             expected_planner_frequency: 1.0,
@@ -445,6 +452,12 @@ impl NodeParams {
             return Err(
                 "control_rate_hz (at most 200) and pose_timeout must be finite and positive".into(),
             );
+        }
+        if !(0.0..=60.0).contains(&self.costmap_update_timeout) {
+            return Err(format!(
+                "costmap_update_timeout must be from 0 to 60 s, not {}",
+                self.costmap_update_timeout
+            ));
         }
         if !(0.0..=10.0).contains(&self.transform_tolerance) {
             return Err(format!(
@@ -593,16 +606,10 @@ impl NodeParams {
 
 /// Keys of Nav2's planner_server block that this node reads past, each with why. Each is
 /// accepted with a warning, so that Nav2's own params file loads unedited.
-const NAV2_KEYS_IGNORED: [(&str, &str); 2] = [
-    (
-        "costmap_update_timeout",
-        "this node hosts no costmap of its own",
-    ),
-    (
-        "action_server_result_timeout",
-        "this node keeps an action's result 900 s for its client, as rcl_action does by default",
-    ),
-];
+const NAV2_KEYS_IGNORED: [(&str, &str); 1] = [(
+    "action_server_result_timeout",
+    "this node keeps an action's result 900 s for its client, as rcl_action does by default",
+)];
 
 /// Keys of a Nav2 planner plugin's block (NavFn's, Smac's and Theta*'s alike) that mean what
 /// this node's top-level keys of the same meaning do: the first plugin id's (the one an
@@ -1152,7 +1159,6 @@ mod tests {
         let file = load_parameter_file_for(&p, &["planner_server"]).unwrap();
         let warned = file.warnings.join("\n");
         for word in [
-            "costmap_update_timeout",
             "action_server_result_timeout",
             "nav2_navfn_planner/NavfnPlanner",
             "ignored in `GridBased`: use_astar",
@@ -1164,6 +1170,7 @@ mod tests {
         assert!(file.planning.costmap.allow_unknown);
         let node = &file.node;
         assert_eq!(node.expected_planner_frequency, 20.0);
+        assert_eq!(node.costmap_update_timeout, 1.0);
         assert!(
             node.use_sim_time,
             "Nav2's simulation stamps with /clock here too"
