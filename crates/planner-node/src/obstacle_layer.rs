@@ -101,15 +101,14 @@ pub async fn receive(s: Arc<Shared>, index: usize, source: ObservationSource, re
                 if std::mem::take(&mut quiet) {
                     info!("{name}: readings come again");
                 }
-                let traced = match taken {
+                let kept = match taken {
                     // Switched off at run time: passed over, as Nav2's layer does.
-                    Ok(_) if !s.live.read().expect("lock").obstacles_enabled => Ok(None),
-                    Ok(reading) => traced(&s, reading, &source.sensor_frame, rules).await,
+                    Ok(_) if !s.live.read().expect("lock").obstacles_enabled => Ok(()),
+                    Ok(reading) => keep(&s, index, reading, &source.sensor_frame, rules).await,
                     Err(why) => Err(Fault { kind: "decode", why }),
                 };
-                match traced {
-                    Ok(Some(rays)) => s.obstacles.lock().expect("lock").keep(index, rays),
-                    Ok(None) => {}
+                match kept {
+                    Ok(()) => {}
                     Err(Fault { kind, why }) => {
                         // One line per kind of fault, not one per reading at the sensor's rate.
                         if faults.insert(kind) {
@@ -235,16 +234,19 @@ struct Fault {
     why: String,
 }
 
-/// One reading's rays in the global frame, placed through TF at its stamp (the sensor is
-/// `sensor_frame` when set, the source's, else the reading's own frame); `None` before the
-/// first map, or on a costmap taken as it is. Checked and traced off the async threads: a
-/// cloud of a million points takes tens of milliseconds.
-async fn traced(
+/// One reading of source `index`, placed through TF at its stamp (the sensor is
+/// `sensor_frame` when set, the source's, else the reading's own frame), traced into rays in
+/// the global frame and kept as the source's latest ([`Seen::keep`]); nothing before the first
+/// map, or on a costmap taken as it is. Off the async threads: a cloud of a million points
+/// takes tens of milliseconds to trace, and an update holds the layer while it applies the
+/// readings.
+async fn keep(
     s: &Arc<Shared>,
+    index: usize,
     reading: Reading,
     sensor_frame: &str,
     rules: SourceRules,
-) -> Result<Option<Vec<Ray>>, Fault> {
+) -> Result<(), Fault> {
     let on_map = s
         .map
         .read()
@@ -252,7 +254,7 @@ async fn traced(
         .as_ref()
         .is_some_and(|m| !m.is_costmap());
     if !on_map {
-        return Ok(None);
+        return Ok(());
     }
     let header = reading.header();
     let frame = if sensor_frame.is_empty() {
@@ -267,14 +269,19 @@ async fn traced(
             kind: "frame",
             why: f.message,
         })?;
-    tokio::task::spawn_blocking(move || rays(&reading, &rules, &sensor).map(Some))
-        .await
-        .unwrap_or_else(|e| {
-            Err(Fault {
-                kind: "task",
-                why: e.to_string(),
-            })
+    let s = s.clone();
+    tokio::task::spawn_blocking(move || {
+        let rays = rays(&reading, &rules, &sensor)?;
+        s.obstacles.lock().expect("lock").keep(index, rays);
+        Ok(())
+    })
+    .await
+    .unwrap_or_else(|e| {
+        Err(Fault {
+            kind: "task",
+            why: e.to_string(),
         })
+    })
 }
 
 /// A reading's rays in the global frame, its sensor at `sensor` there; a malformed reading is
