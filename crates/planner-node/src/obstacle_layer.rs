@@ -164,8 +164,6 @@ pub async fn lay(s: Arc<Shared>) {
 pub struct Seen {
     pub layer: Option<ObstacleLayer>,
     latest: Vec<Option<Vec<Ray>>>,
-    /// When each source's latest reading was kept (costmap_2d's buffer's `last_updated_`).
-    kept_at: Vec<Option<std::time::Instant>>,
     pub changed: bool,
 }
 
@@ -174,15 +172,8 @@ impl Seen {
     pub fn keep(&mut self, index: usize, rays: Vec<Ray>) {
         if self.latest.len() <= index {
             self.latest.resize_with(index + 1, || None);
-            self.kept_at.resize(index + 1, None);
         }
         self.latest[index] = Some(rays);
-        self.kept_at[index] = Some(std::time::Instant::now());
-    }
-
-    /// When source `index`'s latest reading was kept, if one was.
-    pub fn kept_at(&self, index: usize) -> Option<std::time::Instant> {
-        self.kept_at.get(index).copied().flatten()
     }
 
     /// One update on the map's grid `info`: the layer made afresh when the map's size or
@@ -195,7 +186,6 @@ impl Seen {
             layer,
             latest,
             changed,
-            ..
         } = self;
         if layer.as_ref().is_none_or(|l| *l.info() != info) {
             if layer.is_some() {
@@ -273,6 +263,10 @@ async fn keep(
     tokio::task::spawn_blocking(move || {
         let rays = rays(&reading, &rules, &sensor)?;
         s.obstacles.lock().expect("lock").keep(index, rays);
+        s.sources_read_at
+            .lock()
+            .expect("lock")
+            .insert(index, std::time::Instant::now());
         Ok(())
     })
     .await
@@ -346,9 +340,9 @@ pub fn overdue_source(s: &Shared) -> Option<String> {
     if !s.params.costmap_topic.is_empty() || !s.live.read().expect("lock").obstacles_enabled {
         return None;
     }
-    let seen = s.obstacles.lock().expect("lock");
+    let read_at = s.sources_read_at.lock().expect("lock");
     layer.sources.iter().enumerate().find_map(|(i, source)| {
-        let since = seen.kept_at(i).unwrap_or(s.started).elapsed().as_secs_f64();
+        let since = read_at.get(&i).unwrap_or(&s.started).elapsed().as_secs_f64();
         (source.expected_update_rate > 0.0 && since > source.expected_update_rate).then(|| {
             format!(
                 "obstacle_layer.{} (`{}`): no reading for {since:.2} s, where one should come every {:.2} s",

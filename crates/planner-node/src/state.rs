@@ -220,6 +220,10 @@ pub struct Shared {
     /// source's latest reading, and whether the layer changed since it was last laid on the
     /// grid (obstacle_layer.rs).
     pub obstacles: Mutex<crate::obstacle_layer::Seen>,
+    /// When each obstacle layer source's latest reading was kept, by its index (costmap_2d's
+    /// observation buffer's `last_updated_`): apart from `obstacles`, which an update holds
+    /// while it traces, so a plan asking whether the costmap is current never waits on it.
+    pub sources_read_at: Mutex<std::collections::HashMap<usize, Instant>>,
     /// The obstacles as last laid on the grid ([`Shared::lay_obstacles`]).
     pub seen_obstacles: RwLock<Option<Arc<ObstacleLayer>>>,
     /// Held while a grid is made again for changed costmap parameters, so that two requests
@@ -368,6 +372,7 @@ impl Shared {
             map: RwLock::new(None),
             keepout: RwLock::new(None),
             obstacles: Mutex::new(Default::default()),
+            sources_read_at: Mutex::new(Default::default()),
             seen_obstacles: RwLock::new(None),
             remaking: Mutex::new(()),
             grid_installed: tokio::sync::Notify::new(),
