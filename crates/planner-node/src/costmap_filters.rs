@@ -141,8 +141,9 @@ pub struct Zones {
 }
 
 /// The masks of `filter` on `topic`: each one checked (a map's bounds and cell cap; a mask in
-/// another frame placed in the global frame through TF, its frame's latest transform, or
-/// refused when TF cannot place it) and put in force. A keepout mask is kept for every grid made from now on; the current grid is made
+/// another frame placed in the global frame through TF, its frame's latest transform, and
+/// tried again every [`PLACE_RETRY`] while TF cannot place it) and put in force. A keepout
+/// mask is kept for every grid made from now on; the current grid is made
 /// again under it at once, and the path being followed checked against it
 /// (`inputs::remake_grid_on_change`): a path through a new keepout zone is planned again. A
 /// speed or binary mask is read at the robot's pose from the next control tick

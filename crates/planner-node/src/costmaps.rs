@@ -285,11 +285,7 @@ async fn clear(s: &Arc<Shared>, region: Region) -> Result<Option<usize>, String>
             Some((at.position(), side, true))
         }
     };
-    // Off the async threads: the scans' task holds the layer while it traces.
-    let shared = s.clone();
-    let counts = tokio::task::spawn_blocking(move || shared.clear_obstacles(square))
-        .await
-        .map_err(|e| e.to_string())?;
+    let counts = s.clear_obstacles_off_thread(square).await?;
     Ok(counts
         .filter(|(before, after)| before != after)
         .map(|(_, after)| after))

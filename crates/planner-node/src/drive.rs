@@ -374,9 +374,8 @@ impl RoundRobin {
             let step = self.behaviors[self.next];
             self.next = (self.next + 1) % self.behaviors.len();
             let Step::Move(behavior) = step else {
-                // Off the async threads: the scans' task holds the layer while it traces.
-                let shared = s.clone();
-                let had = tokio::task::spawn_blocking(move || shared.clear_obstacles(None))
+                let had = s
+                    .clear_obstacles_off_thread(None)
                     .await
                     .ok()
                     .flatten()

@@ -107,15 +107,12 @@ pub async fn receive(s: Arc<Shared>, index: usize, source: ObservationSource, re
                     Ok(reading) => keep(&s, index, reading, &source.sensor_frame, rules).await,
                     Err(why) => Err(Fault { kind: "decode", why }),
                 };
-                match kept {
-                    Ok(()) => {}
-                    Err(Fault { kind, why }) => {
-                        // One line per kind of fault, not one per reading at the sensor's rate.
-                        if faults.insert(kind) {
-                            warn!("{name}: a reading skipped: {why}");
-                        } else {
-                            debug!("{name}: a reading skipped: {why}");
-                        }
+                if let Err(Fault { kind, why }) = kept {
+                    // One line per kind of fault, not one per reading at the sensor's rate.
+                    if faults.insert(kind) {
+                        warn!("{name}: a reading skipped: {why}");
+                    } else {
+                        debug!("{name}: a reading skipped: {why}");
                     }
                 }
             }
@@ -132,8 +129,8 @@ pub async fn receive(s: Arc<Shared>, index: usize, source: ObservationSource, re
     }
 }
 
-/// The layer's updates, at its `update_frequency`: every source's latest reading applied
-/// ([`Shared::update_obstacles`]), and what that changed laid on the grid
+/// The layer's updates, at its `update_frequency` while it is enabled: every source's latest
+/// reading applied ([`Shared::update_obstacles`]), and what that changed laid on the grid
 /// ([`Shared::lay_obstacles`]).
 pub async fn lay(s: Arc<Shared>) {
     let period = Duration::from_secs_f64(1.0 / s.params.obstacle_layer.update_frequency);
@@ -141,6 +138,10 @@ pub async fn lay(s: Arc<Shared>) {
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
         tick.tick().await;
+        // Switched off: grids are made without the layer, and nothing is kept meanwhile.
+        if !s.live.read().expect("lock").obstacles_enabled {
+            continue;
+        }
         let shared = s.clone();
         // Tracing every source's reading takes up to tens of milliseconds: off the async threads.
         let laid = tokio::task::spawn_blocking(move || {
@@ -187,11 +188,13 @@ impl Seen {
             latest,
             changed,
         } = self;
-        if layer.as_ref().is_none_or(|l| *l.info() != info) {
-            if layer.is_some() {
-                info!("a map of another size or origin: the obstacles seen on the last one are forgotten");
-            }
-            *changed = true;
+        if let Some(old) = layer.as_ref().filter(|l| *l.info() != info) {
+            info!(
+                "a map of another size or origin: the obstacles seen on the last one are forgotten"
+            );
+            // A grid is never made with a layer of another map, so only marks laid before
+            // call for laying the empty layer (were that map to come back, they would show).
+            *changed |= old.marked_count() > 0;
         }
         let layer = match layer {
             Some(l) if *l.info() == info => l,

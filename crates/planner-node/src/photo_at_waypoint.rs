@@ -57,17 +57,15 @@ pub async fn save(
         .1
         .clone()
         .ok_or_else(|| format!("no frame on {}", params.image_topic))?;
-    let seconds = ros_edge::now().sec;
-    let path = PathBuf::from(&params.save_dir).join(format!("{index}_{seconds}.png"));
-    let file = path.clone();
+    let dir = PathBuf::from(&params.save_dir);
+    let name = format!("{index}_{}.png", ros_edge::now().sec);
     // Encoding a camera frame takes milliseconds to tens of them: off the async threads.
-    tokio::task::spawn_blocking(move || {
+    let path = tokio::task::spawn_blocking(move || {
         let png = png_from_frame(&frame)?;
-        if let Some(dir) = file.parent() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("cannot make {}: {e}", dir.display()))?;
-        }
-        std::fs::write(&file, png).map_err(|e| format!("cannot write {}: {e}", file.display()))
+        std::fs::create_dir_all(&dir).map_err(|e| format!("cannot make {}: {e}", dir.display()))?;
+        let file = dir.join(name);
+        std::fs::write(&file, png).map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+        Ok::<_, String>(file)
     })
     .await
     .map_err(|e| format!("photo task: {e}"))??;

@@ -550,6 +550,18 @@ impl Shared {
         }
     }
 
+    /// [`Shared::clear_obstacles`] from an async task, on a blocking thread: an update holds the
+    /// layer while it traces the sources' readings. The error is a clearing that panicked.
+    pub async fn clear_obstacles_off_thread(
+        self: &Arc<Self>,
+        square: Option<(Point2, f64, bool)>,
+    ) -> Result<Option<(usize, usize)>, String> {
+        let shared = self.clone();
+        tokio::task::spawn_blocking(move || shared.clear_obstacles(square))
+            .await
+            .map_err(|e| e.to_string())
+    }
+
     /// [`Shared::current_map`] from an async task: the grid is made again, if it must be, on a
     /// blocking thread, not on the runtime's.
     pub async fn current_map_off_thread(self: &Arc<Self>) -> Option<Arc<MapState>> {

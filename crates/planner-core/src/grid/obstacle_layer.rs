@@ -79,20 +79,20 @@ impl SourceRules {
     /// `raytrace_min_range` to `raytrace_max_range`, within its length; with `marking` it
     /// marks `end` when `range` (the return's distance as Nav2 gates it) is from
     /// `obstacle_min_range` up to, not at, `obstacle_max_range` and `z` is within the layer's
-    /// heights.
+    /// heights. `None` for a ray that would neither clear nor mark.
     fn ray(
         &self,
         length: f64,
         range: f64,
         (end, z): (Point2, f64),
         along: impl Fn(f64) -> Point2,
-    ) -> Ray {
+    ) -> Option<Ray> {
         let clear_from = self.raytrace_min_range.min(length);
         let mark = self.marking
             && range >= self.obstacle_min_range
             && range < self.obstacle_max_range
             && (self.layer_min_obstacle_height..=self.layer_max_obstacle_height).contains(&z);
-        Ray {
+        let ray = Ray {
             clear: self.clearing.then(|| {
                 (
                     along(clear_from),
@@ -100,7 +100,8 @@ impl SourceRules {
                 )
             }),
             mark: mark.then_some(end),
-        }
+        };
+        (ray.clear.is_some() || ray.mark.is_some()).then_some(ray)
     }
 }
 
@@ -123,8 +124,9 @@ pub struct Ray {
 /// reading. Marked (with `marking`): from `obstacle_min_range` up to, not at,
 /// `obstacle_max_range`, within the layer's heights. A return outside the source's heights (a
 /// tilted scanner seeing the floor) is dropped whole, as Nav2 drops the scan's projected
-/// points. A ray that neither clears nor marks is left out. `to_map` carries a point of the sensor's frame (x, y in
-/// its scan plane) into the map frame, in three dimensions; the sensor is at its (0, 0).
+/// points. A ray that neither clears nor marks is left out. `to_map` carries a point of the
+/// sensor's frame (x, y in its scan plane) into the map frame, in three dimensions; the sensor
+/// is at its (0, 0).
 pub fn scan_rays(
     ranges: &[f32],
     angle_min: f64,
@@ -152,10 +154,7 @@ pub fn scan_rays(
         if !rules.height_ok(end.z) {
             continue;
         }
-        let ray = rules.ray(r, r, (flat(end), end.z), |d| flat(at(d)));
-        if ray.clear.is_some() || ray.mark.is_some() {
-            rays.push(ray);
-        }
+        rays.extend(rules.ray(r, r, (flat(end), end.z), |d| flat(at(d))));
     }
     rays
 }
@@ -179,7 +178,7 @@ pub fn cloud_rays(
     points
         .into_iter()
         .filter(|p| p.iter().all(|v| v.is_finite()) && rules.height_ok(p.z))
-        .map(|p| {
+        .filter_map(|p| {
             let towards = flat(&p) - from;
             let length = towards.norm();
             let along = |t: f64| {
@@ -191,7 +190,6 @@ pub fn cloud_rays(
             };
             rules.ray(length, (p - origin).norm(), (flat(&p), p.z), along)
         })
-        .filter(|ray| ray.clear.is_some() || ray.mark.is_some())
         .collect()
 }
 
